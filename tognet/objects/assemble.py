@@ -47,18 +47,24 @@ def _fmt(values: Any) -> str:
     return " ".join(f"{float(v):.9g}" for v in np.ravel(values))
 
 
-def mjcf_text(record: ObjectRecord, friction_torsional: float = 0.005, friction_rolling: float = 0.0001) -> str:
+def mjcf_text(
+    record: ObjectRecord, friction_torsional: float = 0.005, friction_rolling: float = 0.0001
+) -> str:
     """A standalone MJCF model of the object: body ``object`` with a free joint, resting above z=0."""
     inertia = np.asarray(record.inertia)
     full = [inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]]
-    assets = [f'    <mesh name="piece_{i:02d}" file="{name}"/>' for i, name in enumerate(record.collision_meshes)]
+    assets = [
+        f'    <mesh name="piece_{i:02d}" file="{name}"/>' for i, name in enumerate(record.collision_meshes)
+    ]
     assets.append(f'    <mesh name="visual" file="{record.visual_mesh}"/>')
     friction = f"{record.friction:.6g} {friction_torsional:g} {friction_rolling:g}"
     geoms = [
         f'      <geom name="piece_{i:02d}" type="mesh" mesh="piece_{i:02d}" friction="{friction}" group="3"/>'
         for i in range(len(record.collision_meshes))
     ]
-    geoms.append('      <geom name="visual" type="mesh" mesh="visual" contype="0" conaffinity="0" group="1"/>')
+    geoms.append(
+        '      <geom name="visual" type="mesh" mesh="visual" contype="0" conaffinity="0" group="1"/>'
+    )
     half_height = 0.5 * float(record.extents[2]) + 0.05
     return "\n".join(
         [

@@ -92,7 +92,9 @@ def object_from_json(data: dict[str, Any], set_dir: Path) -> ObjectRecord:
         raise CatalogError(f"{set_dir / CATALOG_NAME}: object entry without {exc}") from exc
 
 
-def write_catalog(set_dir: str | Path, records: list[ObjectRecord], meta: dict[str, Any] | None = None) -> Path:
+def write_catalog(
+    set_dir: str | Path, records: list[ObjectRecord], meta: dict[str, Any] | None = None
+) -> Path:
     """Write ``catalog.json`` for a set (records sorted by id, so the file is deterministic)."""
     set_dir = Path(set_dir)
     set_dir.mkdir(parents=True, exist_ok=True)
@@ -119,7 +121,8 @@ def load_catalog(set_dir: str | Path) -> list[ObjectRecord]:
     except json.JSONDecodeError as exc:
         raise CatalogError(f"{path}: not valid JSON ({exc})") from exc
     if payload.get("catalog_version") != CATALOG_VERSION:
-        raise CatalogError(f"{path}: catalog version {payload.get('catalog_version')} is not {CATALOG_VERSION}")
+        found = payload.get("catalog_version")
+        raise CatalogError(f"{path}: catalog version {found} is not {CATALOG_VERSION}")
     records = [object_from_json(entry, set_dir) for entry in payload.get("objects", [])]
     for record in records:
         for name in [*record.collision_meshes, record.visual_mesh, record.mjcf]:

@@ -1,0 +1,183 @@
+"""Shape rules T, L and X: place two convex parts and join them rigidly (PG-Primitive and PG-Complex).
+
+Every part is built in a canonical frame: centred at the origin, its long axis along x, its width along y
+and its (small) height along z, with bounding-box extents exactly ``(length, width, height)``.
+Part A is the long part (a handle, or a long edge); part B is placed by the rule:
+
+- **T** (hammer-like): B lies crosswise (about 90 degrees) over one end of A, centred on A's axis,
+  like a hammer head on its handle. B is the thick, heavy part.
+- **L**: B is perpendicular-ish (70-90 degrees) at one end of A, flush with one of A's sides, so that
+  A's long straight side and B form an L (a long sweeping edge with a hook).
+- **X**: B crosses A somewhere in A's middle at 35-90 degrees.
+
+Both parts rest with their lowest points at the same height so a tool lies flat on a table; the object
+frame is then moved to the centre of the bounding box. The visual is the boolean union of the two
+parts (watertight, used for mass properties); the collision pieces are the two convex parts.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import trimesh
+
+from tognet.config import Config, doc
+from tognet.objects.assemble import MeshError
+
+RULES = ("T", "L", "X")
+
+
+@dataclass(frozen=True)
+class ShapeRanges(Config):
+    """Size ranges (metres) of the two parts, per rule. Length along a part's long axis."""
+
+    handle_length: tuple[float, float] = doc((0.15, 0.34), "Part A (handle / long edge) length range (m).")
+    handle_width: tuple[float, float] = doc((0.018, 0.045), "Part A width range (m): fits an 8 cm gripper.")
+    handle_height: tuple[float, float] = doc((0.015, 0.035), "Part A height range (m).")
+    t_head_length: tuple[float, float] = doc((0.06, 0.15), "T rule: head length (crosswise) range (m).")
+    t_head_width: tuple[float, float] = doc((0.025, 0.06), "T rule: head width (along the handle) range (m).")
+    t_head_height: tuple[float, float] = doc((0.022, 0.04), "T rule: head height range (m).")
+    l_arm_length: tuple[float, float] = doc((0.06, 0.18), "L rule: short arm length range (m).")
+    l_arm_width: tuple[float, float] = doc((0.018, 0.045), "L rule: short arm width range (m).")
+    l_arm_height: tuple[float, float] = doc((0.015, 0.035), "L rule: short arm height range (m).")
+    x_cross_length_ratio: tuple[float, float] = doc((0.35, 0.9), "X rule: crossing part length / A length.")
+    x_cross_width: tuple[float, float] = doc((0.018, 0.05), "X rule: crossing part width range (m).")
+    x_cross_height: tuple[float, float] = doc((0.015, 0.035), "X rule: crossing part height range (m).")
+    max_length: float = doc(0.40, "Longest side of the whole object at most this (m); larger layouts shrink.")
+    density: tuple[float, float] = doc((300.0, 1500.0), "Density range (kg/m^3), uniform.")
+    mass: tuple[float, float] = doc(
+        (0.05, 1.5), "Mass range (kg): a density giving a mass outside is clamped to the range's ends."
+    )
+    friction: tuple[float, float] = doc((0.5, 1.2), "Sliding friction coefficient range, uniform.")
+    rule_weights: tuple[float, float, float] = doc((1.0, 1.0, 1.0), "Relative frequency of rules T, L, X.")
+
+
+@dataclass
+class Layout:
+    """Where the two parts go: their extents and B's pose relative to A (all in metres / radians)."""
+
+    rule: str
+    extents_a: tuple[float, float, float]
+    extents_b: tuple[float, float, float]
+    yaw_b: float
+    centre_b: tuple[float, float]
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+def _u(rng: np.random.Generator, bounds: tuple[float, float]) -> float:
+    return float(rng.uniform(bounds[0], bounds[1]))
+
+
+def sample_rule(rng: np.random.Generator, ranges: ShapeRanges) -> str:
+    """One of T, L, X with the configured weights."""
+    weights = np.asarray(ranges.rule_weights, dtype=np.float64)
+    return RULES[int(rng.choice(len(RULES), p=weights / weights.sum()))]
+
+
+def sample_layout(rng: np.random.Generator, ranges: ShapeRanges, rule: str) -> Layout:
+    """Draw the parts' extents and B's placement for ``rule``."""
+    la, wa, ha = _u(rng, ranges.handle_length), _u(rng, ranges.handle_width), _u(rng, ranges.handle_height)
+    if rule == "T":
+        lb, wb = _u(rng, ranges.t_head_length), _u(rng, ranges.t_head_width)
+        hb = _u(rng, ranges.t_head_height)
+        yaw = np.pi / 2 + float(rng.uniform(-0.12, 0.12))
+        overlap = float(rng.uniform(0.75, 1.0)) * wb  # how much of the head's width sits over the handle
+        centre = (la / 2 + wb / 2 - overlap, float(rng.uniform(-0.1, 0.1)) * lb)
+    elif rule == "L":
+        lb, wb, hb = _u(rng, ranges.l_arm_length), _u(rng, ranges.l_arm_width), _u(rng, ranges.l_arm_height)
+        lb = max(lb, wa + 0.02)
+        yaw = np.pi / 2 + float(rng.uniform(-0.35, 0.0))
+        side = 1.0 if rng.random() < 0.5 else -1.0
+        centre = (la / 2 - wb / 2 * float(rng.uniform(0.8, 1.0)), side * (lb / 2 - wa / 2))
+        yaw *= side
+    elif rule == "X":
+        lb = la * _u(rng, ranges.x_cross_length_ratio)
+        wb, hb = _u(rng, ranges.x_cross_width), _u(rng, ranges.x_cross_height)
+        lb = max(lb, wa + 0.04)
+        yaw = float(rng.uniform(np.radians(35), np.radians(90))) * (1.0 if rng.random() < 0.5 else -1.0)
+        centre = (float(rng.uniform(-0.3, 0.3)) * la, float(rng.uniform(-0.15, 0.15)) * lb)
+    else:
+        raise ValueError(f"unknown shape rule {rule!r}; expected one of {', '.join(RULES)}")
+    return Layout(rule=rule, extents_a=(la, wa, ha), extents_b=(lb, wb, hb), yaw_b=yaw, centre_b=centre)
+
+
+def fit_extents(mesh: trimesh.Trimesh, extents: tuple[float, float, float]) -> trimesh.Trimesh:
+    """Centre a mesh at its bounding-box centre and scale each axis so the box is exactly ``extents``."""
+    mesh = mesh.copy()
+    lo, hi = mesh.bounds
+    size = np.maximum(hi - lo, 1e-12)
+    mesh.vertices = (mesh.vertices - (lo + hi) / 2) * (np.asarray(extents) / size)
+    return mesh
+
+
+def _placed(mesh: trimesh.Trimesh, yaw: float, centre: tuple[float, float]) -> trimesh.Trimesh:
+    c, s = np.cos(yaw), np.sin(yaw)
+    rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    out = mesh.copy()
+    out.vertices = out.vertices @ rot.T + np.array([centre[0], centre[1], 0.0])
+    return out
+
+
+def _rest_on_floor(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    out = mesh.copy()
+    out.vertices = out.vertices - np.array([0.0, 0.0, out.bounds[0, 2]])
+    return out
+
+
+def convex_part(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """The convex hull of ``mesh`` with outward faces (collision pieces must be convex)."""
+    hull = trimesh.convex.convex_hull(np.asarray(mesh.vertices))
+    if not hull.is_volume:
+        raise MeshError("convex part is not a closed volume")
+    return hull
+
+
+def union(meshes: list[trimesh.Trimesh]) -> trimesh.Trimesh:
+    """Watertight boolean union (manifold3d engine)."""
+    result = trimesh.boolean.union(meshes, engine="manifold")
+    if not isinstance(result, trimesh.Trimesh) or not result.is_watertight or result.volume <= 0:
+        raise MeshError("boolean union of the parts is not a watertight volume")
+    return result
+
+
+def compose(
+    part_a: trimesh.Trimesh, part_b: trimesh.Trimesh, layout: Layout, max_length: float = 0.40
+) -> tuple[trimesh.Trimesh, list[trimesh.Trimesh]]:
+    """Place two canonical convex parts by ``layout`` and join them.
+
+    Returns (visual, [piece_a, piece_b]) in the object frame (bounding-box centre at the origin).
+    If the parts barely touch (pointy polytopes), B slides towards A's centre until they overlap
+    by a few percent of the smaller part, so the object is one rigid, connected body.
+    """
+    a = _rest_on_floor(convex_part(part_a))
+    b0 = _rest_on_floor(convex_part(part_b))
+    centre = np.asarray(layout.centre_b, dtype=np.float64)
+    small = min(a.volume, b0.volume)
+    for _ in range(12):
+        b = _placed(b0, layout.yaw_b, (float(centre[0]), float(centre[1])))
+        visual = union([a, b])
+        overlap = a.volume + b.volume - visual.volume
+        if overlap > 0.04 * small and len(visual.split(only_watertight=False)) == 1:
+            break
+        centre = centre * 0.8
+    else:
+        raise MeshError("the two parts do not overlap enough to form one rigid object")
+    layout.info["centre_b_used"] = [round(float(v), 6) for v in centre]
+    lo, hi = visual.bounds
+    scale = min(1.0, max_length / float(np.max(hi - lo)))
+    shift = -(lo + hi) / 2
+    out = []
+    for mesh in (visual, a, b):
+        moved = mesh.copy()
+        moved.vertices = (moved.vertices + shift) * scale
+        out.append(moved)
+    layout.info["shrink"] = round(scale, 6)
+    return out[0], out[1:]
+
+
+def sample_density(rng: np.random.Generator, ranges: ShapeRanges, volume: float) -> float:
+    """A density from the range, clamped so that the mass stays in ``ranges.mass``."""
+    density = _u(rng, ranges.density)
+    return float(np.clip(density, ranges.mass[0] / volume, ranges.mass[1] / volume))

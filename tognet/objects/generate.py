@@ -1,0 +1,204 @@
+"""Deterministic object sets: (kind, split, index) -> the same object, byte for byte, on any machine.
+
+- ``object_id(kind, split, index) = f"{kind}-{split}-{index:06d}"``.
+- The generator's random stream is seeded from (kind, split, index) through SHA-256 (never Python's
+  ``hash()``, which is salted per process), so train and test objects come from different streams and
+  their ids differ by construction.
+- ``generate_set`` writes the objects, ``catalog.json`` and ``generator_config.json`` (the
+  :class:`GeneratorConfig` used) into one folder. Objects already in the folder's catalog are kept:
+  generating indices that exist again rewrites them identically.
+- The realistic set is a fixed list of models (``tognet.objects.realistic``); it is a test set only
+  (the paper never trains on it), index i is model i, and asking for more objects than there are
+  models is an error that names the limit (the models have real-world sizes, so they are not rescaled).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import trimesh
+from tqdm import tqdm
+
+from tognet.config import Config, doc
+from tognet.errors import TognetError
+from tognet.objects.assemble import MeshError, assemble_object
+from tognet.objects.complex import ComplexConfig, make_complex
+from tognet.objects.compose import sample_density
+from tognet.objects.primitive import PrimitiveConfig, make_primitive
+from tognet.objects.record import CATALOG_NAME, SPLITS, ObjectRecord, load_catalog, write_catalog
+
+GENERATED_KINDS = ("primitive", "complex", "realistic")
+CONFIG_NAME = "generator_config.json"
+SEED_NAMESPACE = "tognet/objects/v1"
+MAX_ATTEMPTS = 8
+
+
+@dataclass(frozen=True)
+class GeneratorConfig(Config):
+    """Everything that decides what the procedural generators draw (saved next to each catalog)."""
+
+    primitive: PrimitiveConfig = doc(factory=PrimitiveConfig, text="PG-Primitive settings.")
+    complex: ComplexConfig = doc(factory=ComplexConfig, text="PG-Complex settings.")
+
+
+def object_id(kind: str, split: str, index: int) -> str:
+    """The id of object ``index`` of a kind and split, e.g. ``primitive-train-000042``."""
+    return f"{kind}-{split}-{index:06d}"
+
+
+def object_seed(kind: str, split: str, index: int) -> int:
+    """A 63-bit seed from (kind, split, index), stable across machines and Python processes."""
+    digest = hashlib.sha256(f"{SEED_NAMESPACE}/{kind}/{split}/{index}".encode()).digest()
+    return int.from_bytes(digest[:8], "little") >> 1
+
+
+def _check(kind: str, split: str, index: int) -> None:
+    if kind not in GENERATED_KINDS:
+        raise ValueError(f"unknown object kind {kind!r}; expected one of {', '.join(GENERATED_KINDS)}")
+    if split not in SPLITS:
+        raise ValueError(f"unknown split {split!r}; expected one of {', '.join(SPLITS)}")
+    if index < 0:
+        raise ValueError(f"object index must be >= 0, got {index}")
+
+
+def _realistic_module() -> Any:
+    try:
+        from tognet.objects import realistic
+    except ModuleNotFoundError as exc:
+        if exc.name != "tognet.objects.realistic":
+            raise
+        raise TognetError("the realistic object set is not available yet (no tognet/objects/realistic.py)") \
+            from None
+    return realistic
+
+
+def realistic_count() -> int:
+    """How many realistic models exist."""
+    return len(_realistic_module().REALISTIC_NAMES)
+
+
+def _generate_realistic(split: str, index: int, set_dir: Path) -> ObjectRecord:
+    if split != "test":
+        raise ValueError("the realistic set is a test set only: use --split test")
+    module = _realistic_module()
+    limit = len(module.REALISTIC_NAMES)
+    if index >= limit:
+        raise ValueError(f"realistic index {index} out of range: there are {limit} realistic models")
+    model = module.make_realistic(index)
+    visual = model.visual.copy()
+    lo, hi = visual.bounds
+    shift = -(lo + hi) / 2
+    visual.apply_translation(shift)
+    pieces = [p.copy() for p in model.pieces]
+    for piece in pieces:
+        piece.apply_translation(shift)
+    return assemble_object(
+        set_dir,
+        object_id=object_id("realistic", split, index),
+        kind="realistic",
+        split=split,
+        shape_rule="none",
+        part_types=[model.category],
+        visual=visual,
+        collision_pieces=pieces,
+        density=model.density,
+        friction=model.friction,
+        extra={"name": model.name, "category": model.category, "tool_like": bool(model.tool_like)},
+    )
+
+
+def generate_object(
+    kind: str, split: str, index: int, set_dir: Path, config: GeneratorConfig | None = None
+) -> ObjectRecord:
+    """Generate object ``index`` of ``kind`` (primitive|complex|realistic) and ``split`` (train|test).
+
+    Writes ``set_dir/<object_id>/`` (collision pieces, visual, MJCF) and returns the record; the
+    catalog is written by :func:`generate_set`.
+    """
+    _check(kind, split, index)
+    set_dir = Path(set_dir)
+    if kind == "realistic":
+        return _generate_realistic(split, index, set_dir)
+    config = config or GeneratorConfig()
+    seed = object_seed(kind, split, index)
+    last_error: Exception | None = None
+    for attempt in range(MAX_ATTEMPTS):
+        rng = np.random.default_rng(np.random.SeedSequence([seed, attempt]))
+        try:
+            if kind == "primitive":
+                visual, pieces, rule, types, info = make_primitive(rng, config.primitive)
+                ranges = config.primitive.ranges
+            else:
+                visual, pieces, rule, types, info = make_complex(rng, config.complex)
+                ranges = config.complex.ranges
+        except MeshError as exc:
+            last_error = exc
+            continue
+        density = sample_density(rng, ranges, float(visual.volume))
+        friction = float(rng.uniform(*ranges.friction))
+        return assemble_object(
+            set_dir,
+            object_id=object_id(kind, split, index),
+            kind=kind,
+            split=split,
+            shape_rule=rule,
+            part_types=types,
+            visual=visual,
+            collision_pieces=pieces,
+            density=density,
+            friction=friction,
+            extra={"seed": seed, "attempt": attempt, **info},
+        )
+    name = object_id(kind, split, index)
+    raise MeshError(f"{name}: no valid object in {MAX_ATTEMPTS} attempts ({last_error})")
+
+
+def _existing(out: Path) -> list[ObjectRecord]:
+    return load_catalog(out) if (out / CATALOG_NAME).is_file() else []
+
+
+def generate_set(
+    kind: str,
+    split: str,
+    count: int,
+    out: Path,
+    start: int = 0,
+    progress: bool = False,
+    config: GeneratorConfig | None = None,
+) -> list[ObjectRecord]:
+    """Generate objects ``start .. start+count-1`` into ``out`` and (re)write its catalog.
+
+    Objects already listed in ``out/catalog.json`` stay in it. Returns the new records in index order.
+    For ``kind="realistic"`` the split must be ``test`` and ``start + count`` may not exceed the number
+    of realistic models.
+    """
+    _check(kind, split, start)
+    if count < 1:
+        raise ValueError(f"count must be >= 1, got {count}")
+    if kind == "realistic" and start + count > realistic_count():
+        raise ValueError(
+            f"asked for realistic objects {start}..{start + count - 1} but there are only "
+            f"{realistic_count()} realistic models (use --count {max(realistic_count() - start, 0)} or less)"
+        )
+    out = Path(out)
+    config = config or GeneratorConfig()
+    existing = {r.object_id: r for r in _existing(out)}
+    records: list[ObjectRecord] = []
+    bar = tqdm(range(start, start + count), desc=f"{kind}/{split}", unit="obj", disable=not progress)
+    for index in bar:
+        record = generate_object(kind, split, index, out, config=config)
+        records.append(record)
+        existing[record.object_id] = record
+    config.save(out / CONFIG_NAME)
+    kinds = sorted({r.kind for r in existing.values()})
+    write_catalog(out, list(existing.values()), meta={"kinds": kinds, "generator_config": CONFIG_NAME})
+    return records
+
+
+def load_mesh(path: Path) -> trimesh.Trimesh:
+    """Load one object mesh file written by this package (OBJ, no processing beyond merging)."""
+    return trimesh.load(path, force="mesh", process=False)
