@@ -1,0 +1,466 @@
+"""Episode records on disk: numbered ``.npz`` shards plus a ``manifest.json`` per dataset folder.
+
+One *episode* is one simulated trial: a grasp candidate's depth crop and gripper depth, the grasp and the
+action that were executed, and the labels the simulator produced. A dataset folder holds one task::
+
+    out_dir/
+      manifest.json          format version, task, one entry per shard (counts, rates, sha256, metadata)
+      shard-00000.npz        arrays named as in :data:`FIELDS`, plus ``meta_json`` (per-shard metadata)
+      shard-00001.npz
+      configs/<name>.json    configs saved beside the data (simulator, task, policy, ...)
+
+Shards are written to a temporary file and renamed, so a crash never leaves a half-written shard under
+its final name. A writer opened on an existing folder appends new shard indices and never overwrites.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import re
+import warnings
+import zipfile
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tognet.errors import TognetError
+
+#: Version of the shard/manifest layout; bump on any incompatible change.
+FORMAT_VERSION = 1
+CROP_SIZE = 64
+MANIFEST = "manifest.json"
+SHARD_PATTERN = re.compile(r"^shard-(\d{5,})\.npz$")
+
+#: name -> (dtype, per-episode shape). ``object_id`` is a unicode string.
+FIELDS: dict[str, tuple[np.dtype, tuple[int, ...]]] = {
+    "crop": (np.dtype(np.float32), (CROP_SIZE, CROP_SIZE)),
+    "z": (np.dtype(np.float32), ()),
+    "grasp": (np.dtype(np.float32), (4,)),
+    "action": (np.dtype(np.float32), (4,)),
+    "grasp_success": (np.dtype(np.uint8), ()),
+    "task_success": (np.dtype(np.uint8), ()),
+    "valid": (np.dtype(np.uint8), ()),
+    "failure": (np.dtype(np.int8), ()),
+    "object_id": (np.dtype("U"), ()),
+    "scene_seed": (np.dtype(np.int64), ()),
+    "trial": (np.dtype(np.int32), ()),
+}
+#: Fields a caller may leave out of :meth:`ShardWriter.add`, with their default value.
+DEFAULTS: dict[str, Any] = {"valid": 1, "failure": 0, "trial": 0}
+
+
+class DatasetError(TognetError):
+    """A dataset folder, manifest or shard is missing, corrupt or inconsistent."""
+
+
+@dataclasses.dataclass
+class EpisodeArrays:
+    """Episodes as column arrays (length N each); see :data:`FIELDS` for dtypes and shapes."""
+
+    crop: np.ndarray
+    z: np.ndarray
+    grasp: np.ndarray
+    action: np.ndarray
+    grasp_success: np.ndarray
+    task_success: np.ndarray
+    valid: np.ndarray
+    failure: np.ndarray
+    object_id: np.ndarray
+    scene_seed: np.ndarray
+    trial: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.z.shape[0])
+
+    def subset(self, index: np.ndarray | Sequence[int]) -> EpisodeArrays:
+        """The episodes at ``index`` (an integer or boolean array)."""
+        index = np.asarray(index)
+        return EpisodeArrays(**{name: getattr(self, name)[index] for name in FIELDS})
+
+    @staticmethod
+    def empty() -> EpisodeArrays:
+        """An EpisodeArrays with zero episodes and the right dtypes and shapes."""
+        return EpisodeArrays(**{n: np.zeros((0, *shape), dtype=dt) for n, (dt, shape) in FIELDS.items()})
+
+    @staticmethod
+    def concatenate(parts: Sequence[EpisodeArrays]) -> EpisodeArrays:
+        """Join several EpisodeArrays end to end."""
+        if not parts:
+            return EpisodeArrays.empty()
+        return EpisodeArrays(**{n: np.concatenate([getattr(p, n) for p in parts]) for n in FIELDS})
+
+    def summary(self) -> dict[str, Any]:
+        """Counts and success rates (over valid episodes), as JSON-ready numbers."""
+        return _summarise(self.valid, self.grasp_success, self.task_success, self.failure)
+
+
+def _summarise(valid: np.ndarray, s_g: np.ndarray, s_t: np.ndarray, failure: np.ndarray) -> dict[str, Any]:
+    ok = valid.astype(bool)
+    n_valid = int(ok.sum())
+    n_grasp = int((s_g.astype(bool) & ok).sum())
+    n_task = int((s_t.astype(bool) & ok).sum())
+    codes, counts = np.unique(failure[ok], return_counts=True)
+    return {
+        "episodes": int(valid.shape[0]),
+        "valid": n_valid,
+        "grasp_success": n_grasp,
+        "task_success": n_task,
+        "grasp_success_rate": n_grasp / n_valid if n_valid else None,
+        "task_success_rate": n_task / n_valid if n_valid else None,
+        "task_given_grasp_rate": n_task / n_grasp if n_grasp else None,
+        "failures": {str(int(c)): int(k) for c, k in zip(codes, counts, strict=True)},
+    }
+
+
+def _check_column(name: str, value: Any, n: int | None) -> np.ndarray:
+    """Convert one column to its declared dtype and check its shape; ValueError names the field."""
+    dtype, shape = FIELDS[name]
+    arr = np.asarray(value)
+    if name == "object_id":
+        if arr.dtype.kind not in "UO":
+            raise ValueError(f"field 'object_id': expected strings, got dtype {arr.dtype}")
+        arr = arr.astype(str)
+    else:
+        if arr.dtype.kind not in "biuf":
+            raise ValueError(f"field '{name}': expected numbers, got dtype {arr.dtype}")
+        integral = np.all(np.isfinite(arr) & (arr == np.round(arr))) if arr.dtype.kind == "f" else True
+        if dtype.kind in "iu" and not integral:
+            raise ValueError(f"field '{name}': expected integers, got non-integer values")
+        arr = arr.astype(dtype, copy=False)
+    if arr.shape[1:] != shape or (n is not None and arr.shape[0] != n):
+        want = (n if n is not None else "N", *shape)
+        raise ValueError(f"field '{name}': expected shape {want}, got {arr.shape}")
+    if dtype.kind == "f" and not np.all(np.isfinite(arr)):
+        raise ValueError(f"field '{name}': contains NaN or infinite values")
+    return arr
+
+
+def _atomic_write_bytes(path: Path, data: bytes) -> None:
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    with open(tmp, "wb") as fh:
+        fh.write(data)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _read_manifest(folder: Path) -> dict[str, Any] | None:
+    path = folder / MANIFEST
+    if not path.is_file():
+        return None
+    try:
+        manifest = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise DatasetError(f"{path}: not a valid manifest ({exc})") from exc
+    if not isinstance(manifest, dict) or "shards" not in manifest:
+        raise DatasetError(f"{path}: not a tognet episode manifest (no 'shards')")
+    version = manifest.get("format_version")
+    if version != FORMAT_VERSION:
+        raise DatasetError(f"{path}: format_version {version!r}, this tognet reads {FORMAT_VERSION}")
+    return manifest
+
+
+class ShardWriter:
+    """Buffer episodes and write them as numbered shards with a manifest.
+
+    ``meta`` (e.g. ``{"round": 1, "policy": "nms_random"}``) is stored in every shard this writer writes
+    and in its manifest entries. ``configs`` are saved as ``configs/<name>.json`` beside the data (a name
+    already used with different content gets a numbered suffix, never an overwrite).
+    """
+
+    def __init__(
+        self,
+        out_dir: str | Path,
+        task: str,
+        meta: Mapping[str, Any] | None = None,
+        shard_size: int = 4096,
+        configs: Mapping[str, Any] | None = None,
+    ) -> None:
+        if shard_size < 1:
+            raise ValueError(f"shard_size must be >= 1, got {shard_size}")
+        if not task:
+            raise ValueError("task name must not be empty")
+        self.out_dir = Path(out_dir)
+        self.task = task
+        self.meta = {"task": task, **dict(meta or {})}
+        if self.meta["task"] != task:
+            raise ValueError(f"meta['task']={self.meta['task']!r} disagrees with task={task!r}")
+        json.dumps(self.meta)  # metadata must be JSON-serialisable; fail now, not at the first flush
+        self.shard_size = int(shard_size)
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        manifest = _read_manifest(self.out_dir)
+        if manifest is None:
+            manifest = {"format_version": FORMAT_VERSION, "task": task, "shards": [], "configs": []}
+        elif manifest.get("task") != task:
+            raise DatasetError(
+                f"{self.out_dir / MANIFEST}: holds task {manifest.get('task')!r}, refusing to add {task!r}"
+            )
+        self._manifest = manifest
+        on_disk = [int(m.group(1)) for p in self.out_dir.iterdir() if (m := SHARD_PATTERN.match(p.name))]
+        listed = [int(SHARD_PATTERN.match(s["file"]).group(1)) for s in manifest["shards"]]  # type: ignore[union-attr]
+        self._next_index = max([-1, *on_disk, *listed]) + 1
+        self._buffer: dict[str, list[np.ndarray]] = {name: [] for name in FIELDS}
+        self._buffered = 0
+        self._closed = False
+        self.written: list[Path] = []
+        if configs:
+            for name, cfg in configs.items():
+                self._save_config(name, cfg)
+        self._write_manifest()
+
+    # -- adding episodes --------------------------------------------------------------------------------
+    def add(self, **episode: Any) -> None:
+        """Add one episode given as keyword fields (see :data:`FIELDS`; valid/failure/trial optional)."""
+        self.add_batch(**{k: np.asarray(v)[None] for k, v in episode.items()})
+
+    def add_batch(self, **columns: Any) -> None:
+        """Add N episodes given as column arrays with a leading dimension N."""
+        if self._closed:
+            raise DatasetError(f"{self.out_dir}: writer already closed")
+        unknown = sorted(set(columns) - set(FIELDS))
+        if unknown:
+            raise ValueError(f"unknown episode field(s) {unknown}; known: {list(FIELDS)}")
+        n = int(np.asarray(columns["z"]).shape[0]) if "z" in columns else None
+        if n is None:
+            raise ValueError("missing episode field 'z'")
+        checked: dict[str, np.ndarray] = {}
+        for name in FIELDS:
+            if name in columns:
+                checked[name] = _check_column(name, columns[name], n)
+            elif name in DEFAULTS:
+                checked[name] = np.full((n,), DEFAULTS[name], dtype=FIELDS[name][0])
+            else:
+                raise ValueError(f"missing episode field '{name}'")
+        for name, arr in checked.items():
+            self._buffer[name].append(arr)
+        self._buffered += n
+        while self._buffered >= self.shard_size:
+            self._flush(self.shard_size)
+
+    # -- writing ----------------------------------------------------------------------------------------
+    def _flush(self, count: int) -> None:
+        columns = {name: np.concatenate(parts) for name, parts in self._buffer.items()}
+        head = {name: arr[:count] for name, arr in columns.items()}
+        self._buffer = {name: [arr[count:]] for name, arr in columns.items()}
+        self._buffered -= count
+        name = f"shard-{self._next_index:05d}.npz"
+        path = self.out_dir / name
+        if path.exists():
+            raise DatasetError(f"{path}: already exists, refusing to overwrite")
+        tmp = path.with_name(f".{name}.tmp-{os.getpid()}")
+        with open(tmp, "wb") as fh:
+            np.savez(fh, meta_json=np.array(json.dumps(self.meta)), format_version=np.array(FORMAT_VERSION),
+                     **head)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+        self._next_index += 1
+        self.written.append(path)
+        entry = {
+            "file": name,
+            "count": int(count),
+            "sha256": _sha256(path),
+            "meta": self.meta,
+            **{k: v for k, v in _summarise(head["valid"], head["grasp_success"], head["task_success"],
+                                            head["failure"]).items() if k != "episodes"},
+        }
+        self._manifest["shards"].append(entry)
+        self._write_manifest()
+
+    def _write_manifest(self) -> None:
+        shards = self._manifest["shards"]
+        totals: dict[str, Any] = {"shards": len(shards), "episodes": sum(s["count"] for s in shards)}
+        for key in ("valid", "grasp_success", "task_success"):
+            totals[key] = sum(s[key] for s in shards)
+        totals["grasp_success_rate"] = totals["grasp_success"] / totals["valid"] if totals["valid"] else None
+        totals["task_success_rate"] = totals["task_success"] / totals["valid"] if totals["valid"] else None
+        totals["task_given_grasp_rate"] = (
+            totals["task_success"] / totals["grasp_success"] if totals["grasp_success"] else None
+        )
+        failures: dict[str, int] = {}
+        for s in shards:
+            for code, k in s.get("failures", {}).items():
+                failures[code] = failures.get(code, 0) + k
+        totals["failures"] = failures
+        self._manifest["totals"] = totals
+        data = json.dumps(self._manifest, indent=2) + "\n"
+        _atomic_write_bytes(self.out_dir / MANIFEST, data.encode())
+
+    def _save_config(self, name: str, cfg: Any) -> None:
+        if hasattr(cfg, "to_dict"):
+            payload = {"config_type": type(cfg).__name__, **cfg.to_dict()}
+        elif isinstance(cfg, Mapping):
+            payload = dict(cfg)
+        else:
+            raise ValueError(f"config '{name}': expected a Config or a dict, got {type(cfg).__name__}")
+        text = json.dumps(payload, indent=2) + "\n"
+        folder = self.out_dir / "configs"
+        folder.mkdir(exist_ok=True)
+        stem, k = name, 1
+        while (folder / f"{stem}.json").exists():
+            if (folder / f"{stem}.json").read_text() == text:
+                return
+            k += 1
+            stem = f"{name}-{k}"
+        _atomic_write_bytes(folder / f"{stem}.json", text.encode())
+        self._manifest.setdefault("configs", []).append(
+            {"file": f"configs/{stem}.json", "name": name, "meta": self.meta}
+        )
+
+    def close(self) -> list[Path]:
+        """Write the remaining buffered episodes as a last (smaller) shard; returns all shards written."""
+        if not self._closed:
+            if self._buffered:
+                self._flush(self._buffered)
+            self._closed = True
+        return self.written
+
+    def __enter__(self) -> ShardWriter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+# -- reading ------------------------------------------------------------------------------------------
+def read_shard(path: str | Path) -> tuple[EpisodeArrays, dict[str, Any]]:
+    """One shard's episodes (all of them, valid or not) and its metadata; DatasetError names the file."""
+    path = Path(path)
+    if not path.is_file():
+        raise DatasetError(f"{path}: shard file not found")
+    try:
+        with np.load(path, allow_pickle=False) as npz:
+            missing = [name for name in (*FIELDS, "meta_json") if name not in npz.files]
+            if missing:
+                raise DatasetError(f"{path}: not a tognet episode shard (missing {missing})")
+            columns = {name: npz[name] for name in FIELDS}
+            meta = json.loads(str(npz["meta_json"]))
+            version = int(npz["format_version"]) if "format_version" in npz.files else None
+    except DatasetError:
+        raise
+    except (zipfile.BadZipFile, EOFError, OSError, ValueError, KeyError, zipfile.LargeZipFile) as exc:
+        raise DatasetError(f"{path}: corrupt or truncated shard ({type(exc).__name__}: {exc})") from exc
+    if version != FORMAT_VERSION:
+        raise DatasetError(f"{path}: shard format_version {version!r}, this tognet reads {FORMAT_VERSION}")
+    n = columns["z"].shape[0]
+    try:
+        checked = {name: _check_column(name, arr, n) for name, arr in columns.items()}
+    except ValueError as exc:
+        raise DatasetError(f"{path}: {exc}") from exc
+    return EpisodeArrays(**checked), meta
+
+
+def shard_paths(folder: str | Path) -> list[Path]:
+    """The shard files of one dataset folder, from its manifest (or, without one, by file name)."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise DatasetError(f"{folder}: dataset folder not found")
+    manifest = _read_manifest(folder)
+    if manifest is not None:
+        return [folder / s["file"] for s in manifest["shards"]]
+    return sorted(p for p in folder.iterdir() if SHARD_PATTERN.match(p.name))
+
+
+def dataset_task(folder: str | Path) -> str | None:
+    """The task name recorded in a dataset folder's manifest (None without a manifest)."""
+    manifest = _read_manifest(Path(folder))
+    return None if manifest is None else str(manifest.get("task"))
+
+
+def describe_dataset(dirs: Iterable[str | Path]) -> dict[str, Any]:
+    """A JSON-ready description of dataset folders (task, shard names, counts, sha256) for checkpoints."""
+    out = []
+    for folder in dirs:
+        folder = Path(folder)
+        manifest = _read_manifest(folder) or {}
+        shards = [
+            {k: s.get(k) for k in ("file", "count", "sha256")} for s in manifest.get("shards", [])
+        ] or [{"file": p.name, "count": None, "sha256": None} for p in shard_paths(folder)]
+        out.append({
+            "dir": str(folder.resolve()),
+            "task": manifest.get("task"),
+            "shards": shards,
+            "totals": manifest.get("totals"),
+        })
+    return {"format_version": FORMAT_VERSION, "datasets": out}
+
+
+def read_dataset(
+    dirs: str | Path | Iterable[str | Path],
+    *,
+    task: str | None = None,
+    skip_bad: bool = False,
+    keep_invalid: bool = False,
+) -> EpisodeArrays:
+    """All episodes of one or more dataset folders, invalid ones (valid=0) dropped.
+
+    ``task``: if given, every folder's manifest must name it. ``skip_bad``: a corrupt, truncated or missing
+    shard is skipped with a warning instead of raising :class:`DatasetError`.
+    """
+    if isinstance(dirs, str | Path):
+        dirs = [dirs]
+    dirs = [Path(d) for d in dirs]
+    if not dirs:
+        raise DatasetError("no dataset folders given")
+    parts: list[EpisodeArrays] = []
+    tasks: dict[str, Path] = {}
+    for folder in dirs:
+        folder_task = dataset_task(folder) if folder.is_dir() else None
+        if folder_task is not None:
+            tasks.setdefault(folder_task, folder)
+            if task is not None and folder_task != task:
+                raise DatasetError(f"{folder}: holds task {folder_task!r}, expected {task!r}")
+        paths = shard_paths(folder)
+        if not paths:
+            raise DatasetError(f"{folder}: no shards found")
+        for path in paths:
+            try:
+                episodes, meta = read_shard(path)
+            except DatasetError as exc:
+                if not skip_bad:
+                    raise
+                warnings.warn(f"skipping bad shard: {exc}", stacklevel=2)
+                continue
+            if task is not None and meta.get("task") not in (None, task):
+                raise DatasetError(f"{path}: shard holds task {meta.get('task')!r}, expected {task!r}")
+            parts.append(episodes)
+    if len(tasks) > 1:
+        raise DatasetError(f"dataset folders hold different tasks: {sorted(tasks)}")
+    episodes = EpisodeArrays.concatenate(parts)
+    if not keep_invalid:
+        episodes = episodes.subset(episodes.valid.astype(bool))
+    return episodes
+
+
+def split_indices_by_object(
+    object_id: np.ndarray, val_fraction: float, seed: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Train and validation episode indices such that no object appears in both.
+
+    Objects are shuffled with ``seed`` and taken into validation until it holds about ``val_fraction`` of
+    the *objects* (at least one when there are two or more objects and val_fraction > 0).
+    """
+    if not 0.0 <= val_fraction < 1.0:
+        raise ValueError(f"val_fraction must be in [0, 1), got {val_fraction}")
+    objects = np.unique(object_id)
+    rng = np.random.default_rng(seed)
+    order = rng.permutation(len(objects))
+    n_val = int(round(val_fraction * len(objects)))
+    if val_fraction > 0 and len(objects) >= 2:
+        n_val = min(max(n_val, 1), len(objects) - 1)
+    val_objects = objects[order[:n_val]]
+    is_val = np.isin(object_id, val_objects)
+    return np.flatnonzero(~is_val), np.flatnonzero(is_val)
