@@ -48,7 +48,7 @@ class ShapeRanges(Config):
     max_length: float = doc(0.40, "Longest side of the whole object at most this (m); larger layouts shrink.")
     density: tuple[float, float] = doc((300.0, 1500.0), "Density range (kg/m^3), uniform.")
     mass: tuple[float, float] = doc(
-        (0.05, 1.5), "Mass range (kg): a density giving a mass outside is clamped to the range's ends."
+        (0.08, 1.2), "Mass range (kg): a density giving a mass outside is clamped to the range's ends."
     )
     friction: tuple[float, float] = doc((0.5, 1.2), "Sliding friction coefficient range, uniform.")
     rule_weights: tuple[float, float, float] = doc((1.0, 1.0, 1.0), "Relative frequency of rules T, L, X.")
