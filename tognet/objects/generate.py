@@ -71,8 +71,9 @@ def _realistic_module() -> Any:
     except ModuleNotFoundError as exc:
         if exc.name != "tognet.objects.realistic":
             raise
-        raise TognetError("the realistic object set is not available yet (no tognet/objects/realistic.py)") \
-            from None
+        raise TognetError(
+            "the realistic object set is not available yet (no tognet/objects/realistic.py)"
+        ) from None
     return realistic
 
 

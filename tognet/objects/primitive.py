@@ -39,8 +39,9 @@ class PrimitiveConfig(Config):
     polytope_points: tuple[int, int] = doc((8, 16), "Number of random points of a polytope (inclusive).")
 
 
-def make_part(part_type: str, extents: tuple[float, float, float], rng: np.random.Generator,
-              config: PrimitiveConfig) -> trimesh.Trimesh:
+def make_part(
+    part_type: str, extents: tuple[float, float, float], rng: np.random.Generator, config: PrimitiveConfig
+) -> trimesh.Trimesh:
     """One convex primitive in the canonical frame (long axis x) with bounding box ``extents``."""
     if part_type == "cuboid":
         mesh = trimesh.creation.box(extents=(1.0, 1.0, 1.0))

@@ -1,0 +1,181 @@
+"""Your own meshes: a folder of OBJ/STL/PLY files -> simulated objects (kind ``imported``).
+
+Each file goes through the same pipeline as the generated objects: scale (``scale``: file units to
+metres), checks, convex decomposition (CoACD, capped hull vertices), mass properties from a density,
+friction, MJCF. What is checked, in order, and the error each failure gives (naming the file):
+
+1. readable by trimesh (``unreadable``), has triangles (``empty``);
+2. repaired: duplicate vertices merged, degenerate/duplicate faces dropped, normals made consistent,
+   small holes (triangles/quads) filled;
+3. not flat and of positive volume (``degenerate``);
+4. longest side within [min_size, max_size] after scaling (``absurd size``);
+5. watertight after the repair (``not watertight``): mass properties need a closed surface, so open
+   meshes are refused rather than guessed at.
+
+A file that fails is listed in ``ImportReport.errors`` and the others are still imported. The object
+id is ``imported-<file stem>`` (lower case, other characters as ``_``). Objects already in the output
+folder stay; re-importing a file with the same id replaces that object only after the new one has been
+written completely.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+import trimesh
+from tqdm import tqdm
+
+from tognet.errors import TognetError
+from tognet.objects.assemble import assemble_object
+from tognet.objects.decompose import DecomposeConfig, decompose
+from tognet.objects.record import CATALOG_NAME, ObjectRecord, load_catalog, write_catalog
+
+MESH_SUFFIXES = (".obj", ".stl", ".ply")
+MIN_SIZE = 0.01
+MAX_SIZE = 1.5
+DEFAULT_DENSITY = 1000.0
+DEFAULT_FRICTION = 0.8
+
+
+class ImportMeshError(TognetError):
+    """One file cannot become an object; the message names the file and the reason."""
+
+
+@dataclass
+class ImportReport:
+    """What ``import_meshes`` did: the objects written and the files refused (path, reason)."""
+
+    records: list[ObjectRecord] = field(default_factory=list)
+    errors: list[tuple[Path, str]] = field(default_factory=list)
+    catalog: Path | None = None
+
+
+def _slug(stem: str) -> str:
+    return re.sub(r"[^a-z0-9_-]+", "_", stem.lower()).strip("_") or "mesh"
+
+
+def load_checked(
+    path: Path, scale: float = 1.0, min_size: float = MIN_SIZE, max_size: float = MAX_SIZE
+) -> trimesh.Trimesh:
+    """Load, scale, repair and check one mesh file; raise ImportMeshError naming the file on failure."""
+    try:
+        loaded = trimesh.load(path, force="mesh", process=False)
+    except Exception as exc:  # trimesh raises many kinds of errors on broken files
+        raise ImportMeshError(f"{path}: unreadable ({type(exc).__name__}: {exc})") from None
+    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0 or len(loaded.vertices) == 0:
+        raise ImportMeshError(f"{path}: empty (no triangles)")
+    mesh = trimesh.Trimesh(np.asarray(loaded.vertices, dtype=np.float64) * scale, loaded.faces, process=True)
+    if not np.all(np.isfinite(mesh.vertices)):
+        raise ImportMeshError(f"{path}: vertices are not finite numbers")
+    mesh.update_faces(mesh.nondegenerate_faces())
+    mesh.update_faces(mesh.unique_faces())
+    mesh.remove_unreferenced_vertices()
+    if len(mesh.faces) == 0:
+        raise ImportMeshError(f"{path}: degenerate (every triangle has zero area)")
+    trimesh.repair.fix_normals(mesh)
+    trimesh.repair.fill_holes(mesh)
+    extents = np.asarray(mesh.extents)
+    longest = float(extents.max())
+    if float(extents.min()) <= 1e-6 * max(longest, 1e-12):
+        raise ImportMeshError(f"{path}: degenerate (flat: extents {np.round(extents, 6).tolist()} m)")
+    if not min_size <= longest <= max_size:
+        hint = "--scale 0.001 reads millimetres" if longest > max_size else "set --scale to metres per unit"
+        raise ImportMeshError(
+            f"{path}: absurd size: longest side {longest:.4g} m after scale {scale:g} "
+            f"(allowed {min_size:g}..{max_size:g} m; wrong units? {hint})"
+        )
+    if not mesh.is_watertight:
+        open_edges = len(trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1))
+        raise ImportMeshError(
+            f"{path}: not watertight ({open_edges} open edges after merging vertices and filling small "
+            "holes); close the surface in a mesh editor"
+        )
+    if not mesh.volume > 1e-9:
+        raise ImportMeshError(f"{path}: degenerate (volume {mesh.volume:.3g} m^3)")
+    return mesh
+
+
+def import_meshes(
+    src_dir: Path,
+    out: Path,
+    scale: float = 1.0,
+    density: float = DEFAULT_DENSITY,
+    friction: float = DEFAULT_FRICTION,
+    split: str = "test",
+    decompose_config: DecomposeConfig | None = None,
+    progress: bool = False,
+) -> ImportReport:
+    """Import every OBJ/STL/PLY file of ``src_dir`` (not recursive) into the object set ``out``.
+
+    Returns an :class:`ImportReport`; raises only if ``src_dir`` is missing or holds no mesh file,
+    or if the parameters are invalid.
+    """
+    src_dir, out = Path(src_dir), Path(out)
+    if not src_dir.is_dir():
+        raise FileNotFoundError(f"mesh folder not found: {src_dir}")
+    if not scale > 0 or not density > 0 or not friction > 0:
+        raise ValueError(f"scale, density and friction must be positive, got {scale}, {density}, {friction}")
+    files = sorted(p for p in src_dir.iterdir() if p.is_file() and p.suffix.lower() in MESH_SUFFIXES)
+    if not files:
+        raise FileNotFoundError(f"no {'/'.join(s[1:].upper() for s in MESH_SUFFIXES)} files in {src_dir}")
+    config = decompose_config or DecomposeConfig()
+    existing = {r.object_id: r for r in load_catalog(out)} if (out / CATALOG_NAME).is_file() else {}
+    report = ImportReport()
+    staging = out / ".importing"
+    seen: dict[str, Path] = {}
+    for path in tqdm(files, desc="import", unit="file", disable=not progress):
+        oid = f"imported-{_slug(path.stem)}"
+        if oid in seen:
+            report.errors.append((path, f"{path}: same object id {oid} as {seen[oid].name}; rename one"))
+            continue
+        seen[oid] = path
+        try:
+            mesh = load_checked(path, scale)
+            lo, hi = mesh.bounds
+            shift = -(lo + hi) / 2
+            mesh.apply_translation(shift)
+            pieces = decompose(mesh, config, seed=0)
+            if not pieces:
+                raise ImportMeshError(f"{path}: convex decomposition gave no pieces")
+            record = assemble_object(
+                staging,
+                object_id=oid,
+                kind="imported",
+                split=split,
+                shape_rule="none",
+                part_types=["mesh"],
+                visual=mesh,
+                collision_pieces=pieces,
+                density=density,
+                friction=friction,
+                extra={"source": path.name, "scale": scale, "offset": [round(float(v), 9) for v in shift]},
+            )
+        except ImportMeshError as exc:
+            report.errors.append((path, str(exc)))
+            continue
+        except TognetError as exc:
+            report.errors.append((path, f"{path}: {exc}"))
+            continue
+        final = out / oid
+        if final.exists():
+            old = out / f".replaced-{oid}"
+            shutil.rmtree(old, ignore_errors=True)
+            final.rename(old)
+            (staging / oid).rename(final)
+            shutil.rmtree(old)
+        else:
+            out.mkdir(parents=True, exist_ok=True)
+            (staging / oid).rename(final)
+        record = replace(record, folder=str(final.resolve()))
+        existing[oid] = record
+        report.records.append(record)
+    shutil.rmtree(staging, ignore_errors=True)
+    if report.records:
+        report.catalog = write_catalog(
+            out, list(existing.values()), meta={"kinds": sorted({r.kind for r in existing.values()})}
+        )
+    return report
