@@ -15,6 +15,7 @@
 from __future__ import annotations
 
 import hashlib
+import importlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -67,7 +68,7 @@ def _check(kind: str, split: str, index: int) -> None:
 
 def _realistic_module() -> Any:
     try:
-        from tognet.objects import realistic
+        realistic = importlib.import_module("tognet.objects.realistic")
     except ModuleNotFoundError as exc:
         if exc.name != "tognet.objects.realistic":
             raise
