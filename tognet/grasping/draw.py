@@ -1,0 +1,78 @@
+"""Draw grasp candidates (jaw lines) on a depth image, coloured by a score."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tognet.geometry import Camera
+
+
+def depth_to_rgb(depth: NDArray[np.float32]) -> NDArray[np.uint8]:
+    """Grey-scale rendering (near = bright) of a depth image; holes are dark red."""
+    valid = np.isfinite(depth)
+    lo, hi = np.percentile(depth[valid], [1, 99]) if valid.any() else (0.0, 1.0)
+    span = max(float(hi - lo), 1e-6)
+    grey = np.clip((hi - np.nan_to_num(depth, nan=hi)) / span, 0, 1) * 200 + 30
+    rgb = np.repeat(grey[..., None], 3, axis=2).astype(np.uint8)
+    rgb[~valid] = (90, 0, 0)
+    return rgb
+
+
+def jaw_endpoints(camera: Camera, grasps: NDArray[np.float64], widths: NDArray[np.float64]) -> NDArray:
+    """(N, 2, 2) pixel coordinates of both fingers of each grasp (jaw line ends)."""
+    grasps = np.asarray(grasps, dtype=np.float64).reshape(-1, 4)
+    half = 0.5 * np.asarray(widths, dtype=np.float64).reshape(-1)
+    axis = np.column_stack([np.cos(grasps[:, 3]), np.sin(grasps[:, 3]), np.zeros(len(grasps))])
+    ends = np.stack([grasps[:, :3] - axis * half[:, None], grasps[:, :3] + axis * half[:, None]], axis=1)
+    uv, _ = camera.project(ends.reshape(-1, 3))
+    return uv.reshape(-1, 2, 2)
+
+
+def draw_grasps(
+    depth: NDArray[np.float32],
+    camera: Camera,
+    grasps: NDArray[np.float64],
+    scores: NDArray[np.float64],
+    out: str | Path,
+    *,
+    widths: NDArray[np.float64] | None = None,
+    title: str = "",
+    scale: int = 2,
+) -> Path:
+    """Write a PNG of the depth image with one jaw line per grasp, coloured by ``scores`` (viridis).
+
+    The line joins the two finger positions (width ``widths``, default 0.05 m); a dot marks the
+    finger at phi's positive direction, so phi and phi + pi are told apart.
+    """
+    from matplotlib import colormaps
+    from PIL import Image, ImageDraw
+
+    grasps = np.asarray(grasps, dtype=np.float64).reshape(-1, 4)
+    scores = np.asarray(scores, dtype=np.float64).reshape(-1)
+    if widths is None:
+        widths = np.full(len(grasps), 0.05)
+    img = Image.fromarray(depth_to_rgb(depth)).resize(
+        (depth.shape[1] * scale, depth.shape[0] * scale), Image.Resampling.NEAREST
+    )
+    draw = ImageDraw.Draw(img)
+    cmap = colormaps["viridis"]
+    if len(grasps):
+        lo, hi = float(scores.min()), float(scores.max())
+        norm = (scores - lo) / (hi - lo) if hi > lo else np.ones_like(scores)
+        ends = jaw_endpoints(camera, grasps, widths) * scale
+        for k in np.argsort(scores):  # best drawn last, on top
+            colour = tuple(int(255 * c) for c in cmap(float(norm[k]))[:3])
+            (u0, v0), (u1, v1) = ends[k]
+            draw.line([(u0, v0), (u1, v1)], fill=colour, width=2)
+            draw.ellipse([u1 - 3, v1 - 3, u1 + 3, v1 + 3], fill=colour)
+        text = f"{title} {len(grasps)} grasps, score {lo:.2f}..{hi:.2f}".strip()
+    else:
+        text = f"{title} no grasp candidates".strip()
+    draw.text((6, 6), text, fill=(255, 255, 0))
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    img.save(out)
+    return out
