@@ -39,6 +39,9 @@ class AntipodalConfig(Config):
     depth_grad_thresh: float = doc(
         0.0025, "Depth-gradient magnitude (m per pixel, central differences) above which a pixel is an edge."
     )
+    normal_radius: int = doc(
+        3, "Half size (pixels) of the Gaussian-weighted window averaging the depth gradient for normals."
+    )
     max_edge_pixels: int = doc(1500, "Edge pixels kept (random subset) before pairing, to bound the cost.")
     max_candidates: int = doc(200, "Maximum number of distinct candidates returned.")
     min_pixel_separation: float = doc(
@@ -136,14 +139,37 @@ def _lookup(image: NDArray[np.float32], u: NDArray, v: NDArray) -> NDArray[np.fl
 
 
 def _edge_pixels(filled: NDArray[np.float32], thresh: float) -> tuple[NDArray, NDArray, NDArray, NDArray]:
-    """Rows, columns and gradient (gx, gy) of pixels whose depth gradient exceeds ``thresh``."""
+    """Rows and columns of pixels whose depth gradient exceeds ``thresh``, and the gradient images."""
     gx = np.zeros_like(filled)
     gy = np.zeros_like(filled)
     gx[:, 1:-1] = (filled[:, 2:] - filled[:, :-2]) * 0.5
     gy[1:-1, :] = (filled[2:, :] - filled[:-2, :]) * 0.5
     mag2 = gx * gx + gy * gy
     rows, cols = np.nonzero(mag2 > thresh * thresh)
-    return rows, cols, gx[rows, cols], gy[rows, cols]
+    return rows, cols, gx, gy
+
+
+def _smoothed_normals(
+    gx: NDArray[np.float32], gy: NDArray[np.float32], rows: NDArray, cols: NDArray, radius: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Unit image-plane normals at (rows, cols): Gaussian-weighted mean gradient over a window.
+
+    Per-pixel central differences on an aliased (stair-step) edge point along the pixel grid; the
+    window average recovers the edge's true direction (Dex-Net blurs the image for the same reason).
+    """
+    h, w = gx.shape
+    sx = np.zeros(rows.size, dtype=np.float64)
+    sy = np.zeros(rows.size, dtype=np.float64)
+    sigma2 = max(radius, 1) ** 2 / 2.0
+    for dr in range(-radius, radius + 1):
+        rr = np.clip(rows + dr, 0, h - 1)
+        for dc in range(-radius, radius + 1):
+            wgt = np.exp(-(dr * dr + dc * dc) / (2 * sigma2))
+            cc = np.clip(cols + dc, 0, w - 1)
+            sx += wgt * gx[rr, cc]
+            sy += wgt * gy[rr, cc]
+    norm = np.maximum(np.hypot(sx, sy), 1e-12)
+    return sx / norm, sy / norm
 
 
 def sample_antipodal(
@@ -163,18 +189,20 @@ def sample_antipodal(
     rows, cols, gx, gy = _edge_pixels(filled, config.depth_grad_thresh)
     # Ignore the outermost image border (no central difference there).
     inner = (rows > 0) & (rows < h - 1) & (cols > 0) & (cols < w - 1)
-    rows, cols, gx, gy = rows[inner], cols[inner], gx[inner], gy[inner]
+    rows, cols = rows[inner], cols[inner]
     # Keep the near side of each step: the pixel one step outward (along the gradient) is farther.
-    gnorm = np.hypot(gx, gy)
-    nu, nv = gx / gnorm, gy / gnorm
+    ex, ey = gx[rows, cols], gy[rows, cols]
+    gnorm = np.hypot(ex, ey)
+    nu, nv = ex / gnorm, ey / gnorm
     ahead = filled[rows + np.rint(nv).astype(np.intp), cols + np.rint(nu).astype(np.intp)]
     near = ahead > filled[rows, cols] + np.float32(0.5 * config.depth_grad_thresh)
-    rows, cols, nu, nv = rows[near], cols[near], nu[near], nv[near]
+    rows, cols = rows[near], cols[near]
     if rows.size < 2:
         return GraspCandidates.empty()
     if rows.size > config.max_edge_pixels:
         keep = rng.choice(rows.size, size=config.max_edge_pixels, replace=False)
-        rows, cols, nu, nv = rows[keep], cols[keep], nu[keep], nv[keep]
+        rows, cols = rows[keep], cols[keep]
+    nu, nv = _smoothed_normals(gx, gy, rows, cols, config.normal_radius)
 
     # Contact depth: nearest-to-camera value of the 3x3 neighbourhood (the object's top rim).
     nb = np.stack([filled[rows + dr, cols + dc] for dr in (-1, 0, 1) for dc in (-1, 0, 1)], axis=0)

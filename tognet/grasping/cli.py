@@ -1,0 +1,103 @@
+"""``tognet grasps``: sample antipodal grasp candidates on a depth image and draw them.
+
+Candidates are coloured by a score: the analytic antipodality quality by default, or any scorer
+(``score_fn(grasps (M, 4)) -> (M,)``) through :func:`render_grasps`. ``--checkpoint`` asks
+``tognet.model.scorer_from_checkpoint(path, scene) -> score_fn`` for the network's scorer once the
+model package provides it.
+"""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+
+import numpy as np
+import typer
+
+from tognet.cliutil import user_errors
+from tognet.errors import TognetError
+from tognet.geometry import Camera
+from tognet.grasping.antipodal import AntipodalConfig, GraspCandidates, sample_antipodal
+from tognet.grasping.cem import ScoreFn
+from tognet.grasping.depth import DepthScene, load_depth_file, prepare_depth
+from tognet.grasping.draw import draw_grasps
+from tognet.grasping.nms import NMSConfig, nms
+
+
+def load_scorer(checkpoint: Path, scene: DepthScene) -> ScoreFn:
+    """The hook for a learned scorer: ``tognet.model.scorer_from_checkpoint(checkpoint, scene)``."""
+    if not checkpoint.is_file():
+        raise FileNotFoundError(f"checkpoint not found: {checkpoint}")
+    try:
+        model = importlib.import_module("tognet.model")
+        factory = model.scorer_from_checkpoint
+    except (ImportError, AttributeError) as exc:
+        raise TognetError(
+            "--checkpoint needs tognet.model.scorer_from_checkpoint(path, scene), which is not available yet"
+        ) from exc
+    return factory(checkpoint, scene)
+
+
+def render_grasps(
+    scene: DepthScene,
+    out: Path,
+    *,
+    config: AntipodalConfig,
+    seed: int = 0,
+    score_fn: ScoreFn | None = None,
+    use_nms: bool = False,
+    nms_config: NMSConfig | None = None,
+) -> tuple[GraspCandidates, np.ndarray, Path]:
+    """Sample candidates on ``scene``, score them (``score_fn`` or the analytic quality), draw to ``out``."""
+    cands = sample_antipodal(scene, None, config, np.random.default_rng(seed))
+    scores = cands.quality if score_fn is None or len(cands) == 0 else np.asarray(score_fn(cands.grasps))
+    if scores.shape != (len(cands),):
+        raise TognetError(f"the scorer returned shape {scores.shape} for {len(cands)} grasps")
+    if use_nms and len(cands):
+        keep = nms(cands.grasps, scores, nms_config or NMSConfig())
+        cands, scores = cands.subset(keep), scores[keep]
+    label = "analytic quality" if score_fn is None else "scorer"
+    path = draw_grasps(
+        scene.depth, scene.camera, cands.grasps, scores, out, widths=cands.widths, title=f"[{label}]"
+    )
+    return cands, scores, path
+
+
+@user_errors
+def grasps(
+    depth: Path = typer.Option(..., "--depth", help="Depth image: .npy/.npz (metres) or 16-bit .png (mm)."),
+    camera: Path = typer.Option(..., "--camera", help="Camera JSON written by Camera.save."),
+    out: Path = typer.Option(..., "--out", help="PNG to write (the depth image with the jaw lines)."),
+    max_candidates: int = typer.Option(200, "--max", min=1, help="Maximum number of candidates."),
+    seed: int = typer.Option(0, "--seed", help="Random seed of the sampler."),
+    checkpoint: Path | None = typer.Option(
+        None, "--checkpoint", help="TOG-Net checkpoint to colour by its score (needs the model package)."
+    ),
+    use_nms: bool = typer.Option(
+        False, "--nms", help="Draw only the grasps kept by non-maximum suppression."
+    ),
+    config: Path | None = typer.Option(None, "--config", help="AntipodalConfig JSON (defaults otherwise)."),
+) -> None:
+    """Sample antipodal grasp candidates on a depth image and draw them, coloured by score."""
+    cfg = AntipodalConfig.load(config) if config is not None else AntipodalConfig()
+    cfg = cfg.replace(max_candidates=max_candidates)
+    cam = Camera.load(camera)
+    image = load_depth_file(depth)
+    try:
+        scene = prepare_depth(image, cam)
+    except ValueError as exc:
+        raise TognetError(f"{depth}: {exc}") from exc
+    score_fn = load_scorer(checkpoint, scene) if checkpoint is not None else None
+    cands, scores, path = render_grasps(scene, out, config=cfg, seed=seed, score_fn=score_fn, use_nms=use_nms)
+    if len(cands) == 0:
+        typer.echo(f"no grasp candidates found; wrote {path}")
+        return
+    typer.echo(
+        f"{len(cands)} candidates (width {1000 * cands.widths.min():.0f}-{1000 * cands.widths.max():.0f} mm, "
+        f"score {scores.min():.2f}-{scores.max():.2f}); wrote {path}"
+    )
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``grasps`` to the tognet command."""
+    app.command("grasps")(grasps)
