@@ -30,6 +30,22 @@ def write_obj(mesh: trimesh.Trimesh, path: Path) -> None:
     path.write_text("\n".join(lines) + "\n")
 
 
+def rounded_hull(piece: trimesh.Trimesh, object_id: str = "", index: int = 0) -> trimesh.Trimesh:
+    """The convex hull of a piece's vertices rounded as the OBJ writer rounds them.
+
+    Hulling after rounding keeps the written piece exactly convex (rounding a hull's vertices can
+    make nearly coplanar faces slightly concave).
+    """
+    points = np.round(np.asarray(piece.vertices, dtype=np.float64), 6)
+    try:
+        hull = trimesh.convex.convex_hull(points)
+    except Exception as exc:  # qhull fails on flat or degenerate point sets
+        raise MeshError(f"{object_id}: collision piece {index} is flat or degenerate ({exc})") from None
+    if not hull.is_volume:
+        raise MeshError(f"{object_id}: collision piece {index} is not a closed convex volume")
+    return hull
+
+
 def mass_properties(mesh: trimesh.Trimesh, density: float) -> tuple[float, float, np.ndarray, np.ndarray]:
     """(mass, volume, centre of mass, 3x3 inertia about the centre of mass) of a watertight mesh."""
     if not mesh.is_watertight:
@@ -113,7 +129,7 @@ def assemble_object(
     names = []
     for i, piece in enumerate(collision_pieces):
         name = f"collision_{i:02d}.obj"
-        write_obj(piece, folder / name)
+        write_obj(rounded_hull(piece, object_id, i), folder / name)
         names.append(name)
     write_obj(visual, folder / "visual.obj")
     record = ObjectRecord(

@@ -1,0 +1,178 @@
+"""Generated objects (PG-Primitive, PG-Complex, realistic): physics, determinism, ids, sizes."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+from objects_testlib import drop_on_plane
+
+from tognet.objects import (
+    ObjectRecord,
+    generate_object,
+    generate_set,
+    load_catalog,
+    object_id,
+    object_seed,
+)
+
+HAS_REALISTIC = importlib.util.find_spec("tognet.objects.realistic") is not None
+COUNTS = {"primitive": 6, "complex": 2, "realistic": 3}
+
+
+@pytest.fixture(scope="module")
+def sets(tmp_path_factory) -> dict[str, tuple[Path, list[ObjectRecord]]]:
+    root = tmp_path_factory.mktemp("objects")
+    out = {}
+    for kind in ("primitive", "complex", "realistic"):
+        if kind == "realistic" and not HAS_REALISTIC:
+            continue
+        split = "test" if kind == "realistic" else "train"
+        folder = root / kind
+        out[kind] = (folder, generate_set(kind, split, COUNTS[kind], folder))
+    return out
+
+
+def _records(sets, kind: str) -> list[ObjectRecord]:
+    if kind not in sets:
+        pytest.skip(f"{kind} objects not available")
+    return sets[kind][1]
+
+
+KINDS = ["primitive", "complex", "realistic"]
+
+
+def test_catalog_lists_what_was_generated(sets):
+    for _kind, (folder, records) in sets.items():
+        loaded = load_catalog(folder)
+        assert [r.object_id for r in loaded] == sorted(r.object_id for r in records)
+        assert loaded == sorted(records, key=lambda r: r.object_id)
+        assert (folder / "generator_config.json").is_file()
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_mass_properties(sets, kind):
+    for record in _records(sets, kind):
+        assert record.mass > 0 and record.volume > 0
+        assert record.mass == pytest.approx(record.density * record.volume, rel=1e-6)
+        visual = trimesh.load(record.path(record.visual_mesh), force="mesh", process=False)
+        assert visual.is_watertight
+        assert visual.volume == pytest.approx(record.volume, rel=1e-3)
+        inertia = record.inertia_matrix
+        assert np.allclose(inertia, inertia.T)
+        eig = np.sort(np.linalg.eigvalsh(inertia))
+        assert eig[0] > 0
+        assert eig[0] + eig[1] >= eig[2] * (1 - 1e-9)  # triangle inequality of principal moments
+        assert 0.01 <= record.friction <= 2.0
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_drops_and_rests_on_plane(sets, kind):
+    for i, record in enumerate(_records(sets, kind)):
+        state = drop_on_plane(record, seed=i)
+        assert state["mass"] == pytest.approx(record.mass, rel=1e-6)
+        assert state["time"] == pytest.approx(2.0)
+        assert state["lowest"] >= -0.002, f"{record.object_id} sank {-1000 * state['lowest']:.1f} mm"
+        assert state["lowest"] <= 0.002, f"{record.object_id} floats {1000 * state['lowest']:.1f} mm"
+        assert state["speed"] < 0.01 and state["spin"] < 0.1, f"{record.object_id} still moving: {state}"
+
+
+@pytest.mark.parametrize("kind", ["primitive", "complex"])
+def test_tool_sized_graspable_convex_pieces(sets, kind):
+    for record in _records(sets, kind):
+        assert record.shape_rule in ("T", "L", "X")
+        assert 0.12 <= max(record.extents) <= 0.40 + 1e-6
+        assert 0.01 <= record.extents[2] <= 0.05  # lies flat: low profile
+        assert len(record.collision_meshes) == 2
+        widths = []
+        for path in record.collision_paths:
+            piece = trimesh.load(path, force="mesh")
+            assert piece.is_convex and piece.is_watertight
+            assert len(piece.vertices) <= 64
+            xy = piece.vertices[:, :2]
+            angles = np.linspace(0, np.pi, 90, endpoint=False)
+            proj = xy @ np.stack([np.cos(angles), np.sin(angles)])
+            widths.append(float((proj.max(axis=0) - proj.min(axis=0)).min()))
+        assert min(widths) < 0.08, f"{record.object_id}: no part fits an 8 cm gripper ({widths})"
+
+
+def test_same_id_gives_identical_files(sets, tmp_path):
+    for kind in ("primitive", "complex"):
+        folder, records = sets[kind]
+        index = len(records) - 1
+        again = generate_set(kind, "train", 1, tmp_path / kind, start=index)[0]
+        original = folder / again.object_id
+        names = sorted(p.name for p in original.iterdir())
+        assert names == sorted(p.name for p in Path(again.folder).iterdir())
+        for name in names:
+            assert (original / name).read_bytes() == (Path(again.folder) / name).read_bytes(), name
+    # The catalog is deterministic too: the same objects give the same bytes.
+    a = generate_set("primitive", "test", 2, tmp_path / "cat_a")
+    b = generate_set("primitive", "test", 2, tmp_path / "cat_b")
+    assert a == b
+    catalog_a, catalog_b = tmp_path / "cat_a" / "catalog.json", tmp_path / "cat_b" / "catalog.json"
+    assert catalog_a.read_bytes() == catalog_b.read_bytes()
+
+
+def test_ids_and_seeds_never_collide_across_splits_and_kinds():
+    ids, seeds = set(), set()
+    n = 0
+    for kind in ("primitive", "complex"):
+        for split in ("train", "test"):
+            for index in range(400):
+                ids.add(object_id(kind, split, index))
+                seeds.add(object_seed(kind, split, index))
+                n += 1
+    assert len(ids) == n and len(seeds) == n
+    assert object_id("primitive", "train", 7) == "primitive-train-000007"
+    assert object_seed("primitive", "train", 7) == object_seed("primitive", "train", 7)
+
+
+def test_train_and_test_objects_differ(tmp_path):
+    train = generate_object("primitive", "train", 0, tmp_path)
+    test = generate_object("primitive", "test", 0, tmp_path)
+    assert train.object_id != test.object_id
+    assert (Path(train.folder) / "visual.obj").read_bytes() != (Path(test.folder) / "visual.obj").read_bytes()
+
+
+def test_generate_set_keeps_existing_objects(tmp_path):
+    generate_set("primitive", "train", 2, tmp_path)
+    generate_set("primitive", "train", 2, tmp_path, start=2)
+    ids = [r.object_id for r in load_catalog(tmp_path)]
+    assert ids == [object_id("primitive", "train", i) for i in range(4)]
+    meta = json.loads((tmp_path / "catalog.json").read_text())["meta"]
+    assert meta["kinds"] == ["primitive"]
+
+
+def test_rules_and_part_types_all_occur(tmp_path):
+    records = generate_set("primitive", "test", 24, tmp_path)
+    assert {r.shape_rule for r in records} == {"T", "L", "X"}
+    assert {t for r in records for t in r.part_types} == {"cuboid", "cylinder", "polytope"}
+    # Hammer-like: T objects whose head is at least as heavy per length as the handle.
+    t_objects = [r for r in records if r.shape_rule == "T"]
+    assert any(r.extra["extents_b"][1] >= r.extra["extents_a"][1] for r in t_objects)
+
+
+def test_bad_arguments_are_clear_errors(tmp_path):
+    with pytest.raises(ValueError, match="unknown object kind 'primitve'"):
+        generate_object("primitve", "train", 0, tmp_path)
+    with pytest.raises(ValueError, match="unknown split 'val'"):
+        generate_set("primitive", "val", 1, tmp_path)
+    with pytest.raises(ValueError, match="count must be >= 1"):
+        generate_set("primitive", "train", 0, tmp_path)
+
+
+@pytest.mark.skipif(not HAS_REALISTIC, reason="realistic set not available")
+def test_realistic_limits(tmp_path):
+    from tognet.objects.realistic import REALISTIC_NAMES
+
+    limit = len(REALISTIC_NAMES)
+    with pytest.raises(ValueError, match=f"only {limit} realistic models"):
+        generate_set("realistic", "test", limit + 1, tmp_path)
+    with pytest.raises(ValueError, match="test set only"):
+        generate_object("realistic", "train", 0, tmp_path)
+    assert not (tmp_path / "catalog.json").exists()
