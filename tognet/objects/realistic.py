@@ -210,9 +210,10 @@ def _flat_handle(x1: float, w0: float, w1: float, t: float, z0: float = 0.0) -> 
 
 
 def _spoon() -> Builder:
+    """Tablespoon lying face down: flat rim and handle on the table, the back of the bowl up."""
     b = Builder()
     b.add(_flat_handle(0.135, 0.026, 0.009, 0.0025), "steel")
-    b.add(ellipsoid((0.17, 0.0, 0.0025), (0.037, 0.021, 0.009), z_max=0.0025), "steel")
+    b.add(ellipsoid((0.17, 0.0, 0.0), (0.037, 0.021, 0.009), z_min=0.0), "steel")
     return b
 
 

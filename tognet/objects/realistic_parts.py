@@ -52,9 +52,15 @@ def hull(*point_sets: np.ndarray) -> trimesh.Trimesh:
 
 
 def ring(
-    center: Vec, u: Vec, v: Vec, a: float, b: float, n: int = 16, p: float = 2.0, phase: float = 0.0
+    center: Vec, u: Vec, v: Vec, a: float, b: float, n: int = 16, p: float = 2.0, phase: float | None = None
 ) -> np.ndarray:
-    """Points of a superellipse (exponent ``p``: 2 = ellipse, larger = rounded rectangle) in plane (u, v)."""
+    """Points of a superellipse (exponent ``p``: 2 = ellipse, larger = rounded rectangle) in plane (u, v).
+
+    The default phase (half a step) puts an edge, not a vertex, at the extremes of u and v, so a part
+    lying on such a section rests on a flat face rather than rocking on a ridge.
+    """
+    if phase is None:
+        phase = math.pi / n
     t = phase + 2.0 * math.pi * np.arange(n) / n
     c, s = np.cos(t), np.sin(t)
     e = 2.0 / p
@@ -105,7 +111,9 @@ def _frame(axis: Vec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return w, u, np.cross(w, u)
 
 
-def frustum(p0: Vec, p1: Vec, r0: float, r1: float, n: int = 20, phase: float = 0.0) -> trimesh.Trimesh:
+def frustum(
+    p0: Vec, p1: Vec, r0: float, r1: float, n: int = 20, phase: float | None = None
+) -> trimesh.Trimesh:
     """Truncated cone (or cylinder when ``r0 == r1``) from point ``p0`` to ``p1``."""
     w, u, v = _frame(np.asarray(p1, float) - np.asarray(p0, float))
     return hull(ring(p0, u, v, r0, r0, n=n, phase=phase), ring(p1, u, v, r1, r1, n=n, phase=phase))
@@ -224,8 +232,8 @@ def vessel(
     r_b = inner[0, 0] * scale
     pieces.append(
         hull(
-            ring((0, 0, 0), (1, 0, 0), (0, 1, 0), r_b, r_b, n=sectors),
-            ring((0, 0, bottom_t), (1, 0, 0), (0, 1, 0), r_b, r_b, n=sectors),
+            ring((0, 0, 0), (1, 0, 0), (0, 1, 0), r_b, r_b, n=sectors, phase=0.0),
+            ring((0, 0, bottom_t), (1, 0, 0), (0, 1, 0), r_b, r_b, n=sectors, phase=0.0),
         )
     )
     for chunk in chunks:
