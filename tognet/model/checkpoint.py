@@ -1,0 +1,155 @@
+"""Self-describing checkpoints.
+
+A checkpoint is a ``torch.save`` dict (loaded with ``weights_only=True``: plain data and tensors only)::
+
+    format, format_version          "tognet-checkpoint", FORMAT_VERSION
+    task                            task name (one model per task)
+    config                          TrainConfig as a dict (architecture and loss inside)
+    arch                            ArchConfig as a dict (repeated for readers that only build the net)
+    normalization                   crop/z mean and std, action mean and std per dim
+    data                            dataset description: dirs, shard files, counts, sha256, totals
+    split                           train/validation object and episode counts
+    code                            tognet version, git commit (if available), torch version
+    created                         UTC time
+    state_dict                      model weights and normalisation buffers
+    epoch, best, metrics            epochs completed, best validation record, latest metrics
+    training                        (last.pt only) optimiser, scheduler, RNG states, history, patience
+
+Reading a checkpoint of another format version, or whose config does not parse as this code's
+TrainConfig, raises :class:`CheckpointError` with the reason; so does a truncated or corrupt file.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import os
+import subprocess
+from pathlib import Path
+from typing import Any
+
+import torch
+
+import tognet
+from tognet.config import ConfigError
+from tognet.errors import TognetError
+from tognet.model.config import ArchConfig, TrainConfig
+from tognet.model.network import TOGNet
+
+FORMAT = "tognet-checkpoint"
+FORMAT_VERSION = 1
+
+
+class CheckpointError(TognetError):
+    """A checkpoint is missing, corrupt, of another format version or does not match this code."""
+
+
+def code_version() -> dict[str, Any]:
+    """tognet version, git commit of the source tree (None outside a git checkout) and torch version."""
+    root = Path(tognet.__file__).resolve().parent.parent
+    commit: str | None = None
+    dirty: bool | None = None
+    try:
+        out = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True,
+                             timeout=5, check=False)
+        if out.returncode == 0:
+            commit = out.stdout.strip()
+            st = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no",
+                                 "--", "tognet"], capture_output=True, text=True, timeout=5, check=False)
+            dirty = bool(st.stdout.strip()) if st.returncode == 0 else None
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return {"tognet": tognet.__version__, "git_commit": commit, "git_dirty": dirty,
+            "torch": str(torch.__version__)}
+
+
+def save_checkpoint(
+    path: str | Path,
+    *,
+    model: TOGNet,
+    config: TrainConfig,
+    task: str,
+    data: dict[str, Any],
+    split: dict[str, Any] | None = None,
+    epoch: int = 0,
+    best: dict[str, Any] | None = None,
+    metrics: dict[str, Any] | None = None,
+    training: dict[str, Any] | None = None,
+) -> Path:
+    """Write a checkpoint atomically (temporary file, then rename)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    payload = {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "task": task,
+        "config": config.to_dict(),
+        "arch": config.arch.to_dict(),
+        "normalization": model.normalization(),
+        "data": data,
+        "split": split or {},
+        "code": code_version(),
+        "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+        "state_dict": {k: v.detach().cpu() for k, v in model.state_dict().items()},
+        "epoch": int(epoch),
+        "best": best or {},
+        "metrics": metrics or {},
+        "training": training,
+    }
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    torch.save(payload, tmp)
+    os.replace(tmp, path)
+    return path
+
+
+def load_checkpoint(path: str | Path, map_location: str | torch.device = "cpu") -> dict[str, Any]:
+    """Read and validate a checkpoint; adds ``config_obj`` (TrainConfig). Raises CheckpointError."""
+    path = Path(path)
+    if not path.is_file():
+        raise CheckpointError(f"{path}: checkpoint file not found")
+    try:
+        payload = torch.load(path, map_location=map_location, weights_only=True)
+    except Exception as exc:  # torch raises many types for a bad file (pickle, zip, runtime errors)
+        raise CheckpointError(
+            f"{path}: not a readable checkpoint (corrupt or truncated?): {type(exc).__name__}: {exc}"
+        ) from exc
+    if not isinstance(payload, dict) or payload.get("format") != FORMAT:
+        raise CheckpointError(f"{path}: not a tognet checkpoint (no '{FORMAT}' header)")
+    version = payload.get("format_version")
+    if version != FORMAT_VERSION:
+        raise CheckpointError(
+            f"{path}: checkpoint format version {version!r}, this tognet "
+            f"({tognet.__version__}) reads version {FORMAT_VERSION}; retrain the model with this version"
+        )
+    written_by = payload.get("code", {})
+    try:
+        config = TrainConfig.from_dict(payload["config"], where=f"{path}:config")
+        arch = ArchConfig.from_dict(payload["arch"], where=f"{path}:arch")
+    except (ConfigError, KeyError) as exc:
+        raise CheckpointError(
+            f"{path}: its config does not match this tognet's TrainConfig ({exc}); it was written by "
+            f"tognet {written_by.get('tognet')} (commit {written_by.get('git_commit')})"
+        ) from exc
+    if arch != config.arch:
+        raise CheckpointError(f"{path}: 'arch' and 'config.arch' disagree; the file was edited or is corrupt")
+    payload["config_obj"] = config
+    return payload
+
+
+def model_from_checkpoint(payload: dict[str, Any], path: str | Path = "<checkpoint>") -> TOGNet:
+    """Build the network of a loaded checkpoint and load its weights (strict)."""
+    model = TOGNet(payload["config_obj"].arch)
+    try:
+        model.load_state_dict(payload["state_dict"], strict=True)
+    except (RuntimeError, KeyError) as exc:
+        raise CheckpointError(f"{path}: weights do not match the architecture in its config: {exc}") from exc
+    return model
+
+
+def describe(payload: dict[str, Any]) -> dict[str, Any]:
+    """The self-description of a loaded checkpoint (everything but tensors), JSON-ready."""
+    out = {k: v for k, v in payload.items() if k not in ("state_dict", "training", "config_obj")}
+    out["parameters"] = int(sum(v.numel() for k, v in payload["state_dict"].items()
+                                if not k.endswith(("running_mean", "running_var", "num_batches_tracked"))
+                                and not k.startswith(("crop_", "z_", "action_"))))
+    out["resumable"] = payload.get("training") is not None
+    return out

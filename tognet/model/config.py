@@ -1,0 +1,69 @@
+"""Configs of the TOG-Net model: architecture, loss and training (saved inside every checkpoint)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+from tognet.config import Config, doc
+
+
+@dataclass(frozen=True)
+class ArchConfig(Config):
+    """Architecture hyperparameters of the three-stream network (small enough for a 2-core CPU)."""
+
+    stem_channels: int = doc(16, "Channels of the first (strided) convolution of the shared trunk.")
+    stem_kernel: int = doc(8, "Kernel size of the first convolution (padding (kernel - stride) / 2).")
+    stem_stride: int = doc(4, "Stride of the first convolution (4: 64 x 64 -> 16 x 16; cheap on a CPU).")
+    stem_pool: bool = doc(False, "2x2 max-pool after the first convolution.")
+    block_channels: tuple[int, ...] = doc((32, 32), "Output channels of each shared residual block.")
+    block_strides: tuple[int, ...] = doc((2, 1), "Stride of each shared residual block (same length).")
+    bottleneck_channels: int = doc(8, "Channels of each stream's 1x1 bottleneck convolution.")
+    z_features: int = doc(16, "Width of the small fully connected layer that embeds the gripper depth z.")
+    head_hidden: int = doc(64, "Hidden units of each head's fully connected layer.")
+    crop_size: int = doc(64, "Side of the large crop (Q_T|G and action streams), pixels.")
+    center_size: int = doc(32, "Side of the centre crop (Q_G stream), pixels; sliced from the large crop.")
+
+
+@dataclass(frozen=True)
+class LossConfig(Config):
+    """The paper's objective: CE(S_G,Q_G) + 1[S_G=1] CE(S_T,Q_T|G) + 1[S_T=1] 1/2 ||f - a||^2_Sigma."""
+
+    action_sigma: tuple[float, float, float, float] = doc(
+        (0.03, 0.03, 0.03, 0.09),
+        "Diagonal of the constant policy std-dev Sigma^(1/2) per action dim (m, m, m, rad); the default is "
+        "about the std-dev of the uniform random actions (+-5 cm, +-pi/20), so the term is of order one.",
+    )
+    reduction: Literal["batch", "masked"] = doc(
+        "batch",
+        "'batch': every term summed over its masked episodes and divided by the batch size N (the paper's "
+        "sum over episodes, scaled by 1/N). 'masked': each term averaged over its own masked subset "
+        "(an empty subset contributes 0).",
+    )
+    weight_grasp: float = doc(1.0, "Weight of the Q_G cross-entropy term (1 = the paper).")
+    weight_task: float = doc(1.0, "Weight of the Q_T|G cross-entropy term (1 = the paper).")
+    weight_action: float = doc(1.0, "Weight of the action term (1 = the paper).")
+
+
+@dataclass(frozen=True)
+class TrainConfig(Config):
+    """Training of one TOG-Net model (one per task)."""
+
+    arch: ArchConfig = doc(factory=ArchConfig, text="Network architecture.")
+    loss: LossConfig = doc(factory=LossConfig, text="Loss definition.")
+    epochs: int = doc(30, "Maximum number of passes over the training episodes.")
+    batch_size: int = doc(128, "Episodes per optimisation step.")
+    lr: float = doc(1e-3, "Adam learning rate.")
+    weight_decay: float = doc(1e-4, "Adam (L2) weight decay.")
+    lr_decay: float = doc(0.95, "Learning rate multiplied by this after every epoch.")
+    val_fraction: float = doc(
+        0.1, "Fraction of the *objects* held out for validation (never split by episode)."
+    )
+    patience: int = doc(5, "Early stopping: epochs without a better validation loss before stopping.")
+    min_delta: float = doc(1e-4, "Early stopping: smallest decrease of validation loss that counts.")
+    seed: int = doc(0, "Seed of weight initialisation, batch order and the validation split.")
+    num_threads: int = doc(2, "torch CPU threads (fixed, for determinism and to share the machine).")
+    deterministic: bool = doc(True, "torch.use_deterministic_algorithms(True) (CPU runs are reproducible).")
+    device: str = doc("auto", "'auto' (CUDA when available, else CPU), 'cpu' or 'cuda'.")
+    eval_batch_size: int = doc(1024, "Episodes per forward pass during validation.")
+    skip_bad_shards: bool = doc(False, "Skip corrupt or truncated shards with a warning instead of failing.")

@@ -1,0 +1,116 @@
+"""Batched inference: score every grasp candidate of an image in one call (used by every planner).
+
+    predictor = TOGNetPredictor.load("runs/sweeping/best.pt")
+    pred = predictor.predict(crops, z)          # crops (N, 64, 64) float32, z (N,) metres
+    best = pred.q_t.argmax(); action = pred.action_mean[best]
+
+``Prediction`` holds ``q_g`` = Q_G, ``q_t_given_g`` = Q_T|G, ``q_t`` = Q_T|G * Q_G (all (N,), in [0, 1])
+and ``action_mean`` (N, 4) = f(o, g) in the stored action units (m, m, m, rad).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import torch
+
+from tognet.model.checkpoint import describe, load_checkpoint, model_from_checkpoint
+from tognet.model.network import TOGNet, fold_batchnorm
+from tognet.model.runtime import select_device, set_threads, tune_allocator
+
+
+@dataclasses.dataclass(frozen=True)
+class Prediction:
+    """Scores and action means of N grasp candidates."""
+
+    q_g: np.ndarray
+    q_t_given_g: np.ndarray
+    q_t: np.ndarray
+    action_mean: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.q_g.shape[0])
+
+
+class TOGNetPredictor:
+    """A trained TOG-Net in eval mode (batch norm folded) with its checkpoint's self-description."""
+
+    def __init__(self, model: TOGNet, info: dict[str, Any] | None = None,
+                 device: str | torch.device | None = None) -> None:
+        self.device = select_device(device if not isinstance(device, torch.device) else str(device))
+        self.model = fold_batchnorm(model).to(self.device).eval()
+        self.info = info or {}
+        self.task: str | None = self.info.get("task")
+        self.crop_size = model.arch.crop_size
+
+    @classmethod
+    def load(cls, path: str | Path, device: str | None = None, num_threads: int | None = None,
+             tune_malloc: bool = True) -> TOGNetPredictor:
+        """Load a checkpoint (``best.pt`` or ``last.pt``). ``device``: None/'auto' picks CUDA if present.
+        ``num_threads`` fixes torch's CPU threads; ``tune_malloc`` applies :func:`tune_allocator`."""
+        if num_threads is not None:
+            set_threads(num_threads)
+        if tune_malloc:
+            tune_allocator()
+        payload = load_checkpoint(path, map_location="cpu")
+        model = model_from_checkpoint(payload, path)
+        info = describe(payload)
+        info["path"] = str(path)
+        return cls(model, info, device)
+
+    def _inputs(self, crops: np.ndarray, z: np.ndarray) -> tuple[torch.Tensor, torch.Tensor]:
+        crops = np.asarray(crops)
+        z = np.asarray(z)
+        s = self.crop_size
+        if crops.ndim == 4 and crops.shape[1] == 1:
+            crops = crops[:, 0]
+        if crops.ndim != 3 or crops.shape[1:] != (s, s):
+            raise ValueError(f"crops: expected shape (N, {s}, {s}), got {crops.shape}")
+        if z.ndim == 2 and z.shape[1] == 1:
+            z = z[:, 0]
+        if z.ndim != 1 or z.shape[0] != crops.shape[0]:
+            raise ValueError(f"z: expected shape ({crops.shape[0]},) to match crops, got {z.shape}")
+        if not np.all(np.isfinite(crops)):
+            raise ValueError(f"crops: {int((~np.isfinite(crops)).sum())} non-finite values (fill depth holes "
+                             "before cropping)")
+        if not np.all(np.isfinite(z)):
+            raise ValueError("z: non-finite values")
+        c = torch.from_numpy(np.ascontiguousarray(crops, dtype=np.float32)).to(self.device)
+        zz = torch.from_numpy(np.ascontiguousarray(z, dtype=np.float32)).to(self.device)
+        return c, zz
+
+    @torch.inference_mode()
+    def predict(self, crops: np.ndarray, z: np.ndarray, batch_size: int = 1024) -> Prediction:
+        """Q_G, Q_T|G, Q_T and the action mean for N candidates (one forward pass per ``batch_size``)."""
+        c, zz = self._inputs(crops, z)
+        n = c.shape[0]
+        if n == 0:
+            e = np.zeros(0, dtype=np.float32)
+            return Prediction(e, e.copy(), e.copy(), np.zeros((0, 4), dtype=np.float32))
+        q_g, q_tg, act = [], [], []
+        for lo in range(0, n, batch_size):
+            out = self.model(c[lo : lo + batch_size], zz[lo : lo + batch_size])
+            q_g.append(torch.sigmoid(out["q_g_logit"]))
+            q_tg.append(torch.sigmoid(out["q_tg_logit"]))
+            act.append(self.model.denormalize_action(out["action_norm"]))
+        g = torch.cat(q_g).float().cpu().numpy()
+        t = torch.cat(q_tg).float().cpu().numpy()
+        a = torch.cat(act).float().cpu().numpy()
+        return Prediction(q_g=g, q_t_given_g=t, q_t=g * t, action_mean=a)
+
+    def score_fn(self, kind: Literal["task", "grasp", "task_given_grasp"] = "task"
+                 ) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+        """A function (crops, z) -> scores (N,): Q_T ('task'), Q_G ('grasp') or Q_T|G. For CEM, wrap it
+        with the crop extraction that turns grasps into (crops, z)."""
+        field = {"task": "q_t", "grasp": "q_g", "task_given_grasp": "q_t_given_g"}
+        if kind not in field:
+            raise ValueError(f"kind must be one of {list(field)}, got {kind!r}")
+
+        def score(crops: np.ndarray, z: np.ndarray) -> np.ndarray:
+            return getattr(self.predict(crops, z), field[kind])
+
+        return score
