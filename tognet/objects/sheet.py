@@ -65,8 +65,19 @@ def write_contact_sheet(set_dir: Path, out_png: Path, max_objects: int = 24) -> 
     cols = min(6, len(records))
     rows = math.ceil(len(records) / cols)
     side_ratio = max(0.25, half_z / half_xy)
-    fig = plt.figure(figsize=(2.6 * cols, rows * 2.6 * (1 + side_ratio) + 0.3))
-    grid = fig.add_gridspec(2 * rows, cols, height_ratios=[1.0, side_ratio] * rows, hspace=0.05, wspace=0.05)
+    height = rows * 2.6 * (1 + side_ratio) * 1.06 + 0.5
+    fig = plt.figure(figsize=(2.6 * cols, height))
+    grid = fig.add_gridspec(
+        2 * rows,
+        cols,
+        height_ratios=[1.0, side_ratio] * rows,
+        hspace=0.06,
+        wspace=0.05,
+        left=0.01,
+        right=0.99,
+        bottom=0.01,
+        top=1.0 - 0.5 / height,
+    )
     for i, (record, mesh) in enumerate(zip(records, meshes, strict=True)):
         r, c = divmod(i, cols)
         colour = _COLOURS.get(record.kind, _DEFAULT_COLOUR)
@@ -89,7 +100,8 @@ def write_contact_sheet(set_dir: Path, out_png: Path, max_objects: int = 24) -> 
             0.03, 0.97, _label(record), transform=top.transAxes, fontsize=6.5, va="top", family="monospace"
         )
     fig.suptitle(
-        f"{set_dir.name}: {len(records)} objects (top: from above, bottom: from the side; bar 10 cm)"
+        f"{set_dir.name}: {len(records)} objects (top: from above, bottom: from the side; bar 10 cm)",
+        y=1.0 - 0.15 / height,
     )
     out_png.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out_png, dpi=110, bbox_inches="tight")
