@@ -132,10 +132,38 @@ def test_tool_like_models_have_a_graspable_part(index: int):
     assert widths and min(widths) <= 0.08, (m.name, widths)
 
 
+# real-world longest side (m) and mass (kg) of the required models
+REAL_WORLD = {
+    "hammer": ((0.25, 0.40), (0.3, 1.0)),
+    "mallet": ((0.25, 0.40), (0.2, 1.0)),
+    "spatula": ((0.25, 0.38), (0.03, 0.2)),
+    "frying_pan": ((0.35, 0.45), (0.4, 1.5)),
+    "wrench": ((0.15, 0.30), (0.08, 0.4)),
+    "screwdriver": ((0.15, 0.30), (0.05, 0.25)),
+    "ladle": ((0.25, 0.38), (0.1, 0.4)),
+    "brush": ((0.15, 0.30), (0.03, 0.2)),
+    "mug": ((0.08, 0.14), (0.25, 0.45)),
+    "bottle": ((0.18, 0.30), (0.4, 0.7)),
+    "can": ((0.10, 0.13), (0.3, 0.4)),
+}
+
+
+@pytest.mark.parametrize("name", sorted(REAL_WORLD))
+def test_required_models_have_real_world_size_and_mass(name: str):
+    m = model(realistic_index(name))
+    (lo, hi), (m_lo, m_hi) = REAL_WORLD[name]
+    assert lo <= max(m.visual.extents) <= hi
+    assert m_lo <= m.visual.volume * m.density <= m_hi
+
+
 def test_hollow_and_non_convex_where_the_real_object_is():
     for name in ["mug", "frying_pan", "bowl", "cup", "saucepan", "wrench", "pliers", "hammer", "tape_roll"]:
-        v = model(realistic_index(name)).visual
-        assert v.volume < 0.7 * v.convex_hull.volume, name
+        m = model(realistic_index(name))
+        assert m.visual.volume < 0.7 * m.visual.convex_hull.volume, name
+        # the collision pieces keep the shape open too (a mug's cavity is not filled in)
+        pieces_hull = trimesh.convex.convex_hull(np.vstack([p.vertices for p in m.pieces]))
+        union = trimesh.boolean.union(m.pieces, engine="manifold")
+        assert union.volume < 0.7 * pieces_hull.volume, name
 
 
 def test_same_index_same_meshes():
