@@ -176,3 +176,22 @@ def test_realistic_limits(tmp_path):
     with pytest.raises(ValueError, match="test set only"):
         generate_object("realistic", "train", 0, tmp_path)
     assert not (tmp_path / "catalog.json").exists()
+
+
+def test_workers_give_the_same_files(tmp_path):
+    generate_set("primitive", "train", 4, tmp_path / "one")
+    generate_set("primitive", "train", 4, tmp_path / "two", workers=2)
+    for path in sorted((tmp_path / "one").rglob("*")):
+        if path.is_file():
+            assert path.read_bytes() == (tmp_path / "two" / path.relative_to(tmp_path / "one")).read_bytes()
+
+
+def test_a_set_made_with_another_config_is_refused(tmp_path):
+    from tognet.objects import GeneratorConfig
+    from tognet.objects.primitive import PrimitiveConfig
+
+    generate_set("primitive", "train", 1, tmp_path)
+    other = GeneratorConfig(primitive=PrimitiveConfig(cylinder_sections=12))
+    with pytest.raises(ValueError, match="different generator config"):
+        generate_set("primitive", "train", 1, tmp_path, start=1, config=other)
+    assert [r.object_id for r in load_catalog(tmp_path)] == ["primitive-train-000000"]

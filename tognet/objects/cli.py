@@ -44,11 +44,12 @@ def generate(
     ),
     out: Path = typer.Option(..., "--out", help="Set folder; its catalog.json keeps objects already there."),
     start: int = typer.Option(0, "--start", min=0, help="First object index (to extend a set)."),
+    workers: int = typer.Option(1, "--workers", min=1, help="Processes generating in parallel."),
 ) -> None:
     """Generate objects (deterministic: the same kind/split/index gives the same files anywhere)."""
     from tognet.objects.generate import generate_set
 
-    records = generate_set(kind.value, split.value, count, out, start=start, progress=True)
+    records = generate_set(kind.value, split.value, count, out, start=start, progress=True, workers=workers)
     rules: dict[str, int] = {}
     for r in records:
         rules[r.shape_rule] = rules.get(r.shape_rule, 0) + 1

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import hashlib
 import importlib
+from collections.abc import Iterable
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -171,10 +173,14 @@ def generate_set(
     start: int = 0,
     progress: bool = False,
     config: GeneratorConfig | None = None,
+    workers: int = 1,
 ) -> list[ObjectRecord]:
     """Generate objects ``start .. start+count-1`` into ``out`` and (re)write its catalog.
 
-    Objects already listed in ``out/catalog.json`` stay in it. Returns the new records in index order.
+    Objects already listed in ``out/catalog.json`` stay in it; a folder whose saved generator config
+    differs from ``config`` is refused (its objects would be described wrongly). If an object fails,
+    the catalog still lists every object written before the error. ``workers`` > 1 generates in that
+    many processes (the files do not depend on it). Returns the new records in index order.
     For ``kind="realistic"`` the split must be ``test`` and ``start + count`` may not exceed the number
     of realistic models.
     """
@@ -186,19 +192,51 @@ def generate_set(
             f"asked for realistic objects {start}..{start + count - 1} but there are only "
             f"{realistic_count()} realistic models (use --count {max(realistic_count() - start, 0)} or less)"
         )
+    if workers < 1:
+        raise ValueError(f"workers must be >= 1, got {workers}")
     out = Path(out)
     config = config or GeneratorConfig()
+    if (out / CONFIG_NAME).is_file() and GeneratorConfig.load(out / CONFIG_NAME) != config:
+        raise ValueError(
+            f"{out} holds objects made with a different generator config ({out / CONFIG_NAME}); "
+            "use another folder"
+        )
     existing = {r.object_id: r for r in _existing(out)}
     records: list[ObjectRecord] = []
-    bar = tqdm(range(start, start + count), desc=f"{kind}/{split}", unit="obj", disable=not progress)
-    for index in bar:
-        record = generate_object(kind, split, index, out, config=config)
+    indices = range(start, start + count)
+    bar = tqdm(total=count, desc=f"{kind}/{split}", unit="obj", disable=not progress)
+    try:
+        if workers == 1:
+            results: Iterable[ObjectRecord] = (
+                generate_object(kind, split, i, out, config=config) for i in indices
+            )
+            _collect(results, records, existing, bar)
+        else:
+            with ProcessPoolExecutor(max_workers=workers) as pool:
+                jobs = pool.map(_generate_job, [(kind, split, i, str(out), config) for i in indices])
+                _collect(jobs, records, existing, bar)
+    finally:
+        bar.close()
+        if records:
+            config.save(out / CONFIG_NAME)
+            kinds = sorted({r.kind for r in existing.values()})
+            meta = {"kinds": kinds, "generator_config": CONFIG_NAME}
+            write_catalog(out, list(existing.values()), meta=meta)
+    return records
+
+
+def _generate_job(args: tuple[str, str, int, str, GeneratorConfig]) -> ObjectRecord:
+    kind, split, index, out, config = args
+    return generate_object(kind, split, index, Path(out), config=config)
+
+
+def _collect(
+    results: Iterable[ObjectRecord], records: list[ObjectRecord], existing: dict[str, ObjectRecord], bar: tqdm
+) -> None:
+    for record in results:
         records.append(record)
         existing[record.object_id] = record
-    config.save(out / CONFIG_NAME)
-    kinds = sorted({r.kind for r in existing.values()})
-    write_catalog(out, list(existing.values()), meta={"kinds": kinds, "generator_config": CONFIG_NAME})
-    return records
+        bar.update(1)
 
 
 def load_mesh(path: Path) -> trimesh.Trimesh:
