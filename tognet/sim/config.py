@@ -1,0 +1,146 @@
+"""Every physical and episode parameter of the simulated world, typed and documented.
+
+A :class:`SimConfig` is logged with every result; changing physics means changing this config, never
+the control code.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from tognet.config import Config, doc
+from tognet.tasks.hammering import HammeringConfig
+from tognet.tasks.sweeping import SweepingConfig
+
+
+@dataclass(frozen=True)
+class PhysicsConfig(Config):
+    """MuJoCo solver options."""
+
+    timestep: float = doc(0.002, "Simulation timestep (s).")
+    impratio: float = doc(
+        10.0, "Frictional-to-normal impedance ratio (elliptic cones; firmer grip friction)."
+    )
+    iterations: int = doc(30, "Maximum constraint-solver iterations per step.")
+    noslip_iterations: int = doc(
+        5,
+        "Noslip solver iterations: removes the slow creep of soft contact friction (a tool held off its "
+        "centre of mass otherwise pivots down in the fingers).",
+    )
+    gravity: float = doc(9.81, "Gravity (m/s^2), along -z.")
+
+
+@dataclass(frozen=True)
+class WorldConfig(Config):
+    """The table, the ground and where things go on it."""
+
+    table_size: tuple[float, float] = doc((1.22, 0.76), "Table top size (m) along x and y (48 x 30 in).")
+    table_height: float = doc(0.75, "Height of the table top above the ground (m); the top is at z = 0.")
+    table_friction: float = doc(0.5, "Sliding friction of the table top and the ground.")
+    drop_x: tuple[float, float] = doc(
+        (-0.45, -0.16), "Range of the object's drop x (m), grasping half (x < 0)."
+    )
+    drop_y: tuple[float, float] = doc((-0.18, 0.18), "Range of the object's drop y (m).")
+    drop_height: float = doc(0.01, "Gap between the table and the object's lowest point when dropped (m).")
+    settle_time: float = doc(0.5, "Maximum time to let the dropped object settle (s).")
+    settle_speed: float = doc(0.01, "The object counts as settled below this speed (m/s and rad/s).")
+    object_torsional_friction: float = doc(
+        0.005, "Torsional friction coefficient of the object's pieces (m)."
+    )
+    object_rolling_friction: float = doc(0.0001, "Rolling friction coefficient of the object's pieces (m).")
+
+
+@dataclass(frozen=True)
+class CameraConfig(Config):
+    """The overhead Kinect2-like depth camera and its per-episode disturbance."""
+
+    width: int = doc(512, "Image width (px).")
+    height: int = doc(424, "Image height (px).")
+    fx: float = doc(365.0, "Nominal focal length x (px).")
+    fy: float = doc(365.0, "Nominal focal length y (px).")
+    position: tuple[float, float, float] = doc(
+        (-0.305, 0.0, 0.72), "Nominal camera centre (m): above the middle of the grasping half."
+    )
+    yaw: float = doc(np.pi / 2, "Nominal yaw of the image x axis (rad): image x along world +y.")
+    translation_noise: tuple[float, float, float] = doc(
+        (0.05, 0.1, 0.03), "Uniform +- disturbance of the camera position per episode (m), as the authors'."
+    )
+    rotation_noise: float = doc(
+        np.pi / 70, "Uniform +- disturbance of roll, pitch and yaw per episode (rad)."
+    )
+    focal_noise: float = doc(0.03, "Relative uniform +- disturbance of fx and fy per episode.")
+    principal_noise: float = doc(4.0, "Uniform +- disturbance of cx and cy per episode (px).")
+    depth_noise: float = doc(0.0, "Std-dev of Gaussian depth noise (m) per pixel; 0 disables it.")
+    hole_fraction: float = doc(
+        0.0, "Fraction of pixels dropped to NaN at random (sensor holes); 0 disables it."
+    )
+    max_range: float = doc(4.5, "Rays longer than this (m) see nothing (NaN), as a Kinect2.")
+
+
+@dataclass(frozen=True)
+class GripperConfig(Config):
+    """Parallel-jaw gripper on an x, y, z, yaw base; every motion is speed- and force-limited."""
+
+    max_opening: float = doc(0.08, "Maximum distance between the finger pads (m).")
+    finger_force: float = doc(60.0, "Force limit of each finger's closing actuator (N).")
+    finger_kp: float = doc(2000.0, "Finger position-servo stiffness (N/m); saturates at the force limit.")
+    pad_friction: float = doc(1.0, "Sliding friction of the finger pads.")
+    pad_torsional_friction: float = doc(0.02, "Torsional friction of the pads (m), condim 4.")
+    pad_size: tuple[float, float, float] = doc(
+        (0.008, 0.04, 0.03), "Finger pad box (m): thickness along the jaw axis, width, height."
+    )
+    finger_length: float = doc(0.06, "Finger length above the pad (m), up to the palm.")
+    linear_speed: float = doc(0.8, "Maximum linear speed of the base (m/s).")
+    accel_time: float = doc(0.06, "Time the base takes to ramp up to (and down from) a move's speed (s).")
+    approach_speed: float = doc(0.4, "Speed of the last approach to the grasp and of the lift start (m/s).")
+    yaw_speed: float = doc(
+        9.0, "The wrist's full turning speed (rad/s): the hammer swing runs at it; transports too."
+    )
+    linear_force: float = doc(150.0, "Force limit of each linear base actuator (N).")
+    yaw_torque: float = doc(
+        1.2,
+        "Torque limit of the wrist (N m). Kept below peg_friction x the shortest useful lever, so the "
+        "motor cannot push the peg home slowly.",
+    )
+    linear_kp: float = doc(8000.0, "Stiffness of the linear base servos (N/m).")
+    linear_kv: float = doc(250.0, "Damping of the linear base servos (N s/m).")
+    yaw_kp: float = doc(40.0, "Stiffness of the wrist servo (N m/rad).")
+    yaw_kv: float = doc(0.6, "Damping of the wrist servo (N m s/rad).")
+    yaw_armature: float = doc(0.002, "Reflected rotor inertia of the wrist (kg m^2).")
+    hand_mass: float = doc(0.4, "Mass of the hand (palm), kg; gravity-compensated like the whole base.")
+    approach_height: float = doc(0.08, "The gripper starts this far above the grasp and descends (m).")
+    close_time: float = doc(0.12, "Time allowed for the fingers to close (s).")
+    lift_height: float = doc(0.2, "Height of the grasp centre after the lift and during transports (m).")
+    min_lift: float = doc(0.15, "The lift raises the grasp by at least this much (m).")
+    hold_time: float = doc(0.06, "Hold after the lift before checking the grasp (s).")
+    transport_clearance: float = doc(0.2, "Height of the gripper centre during transports (m).")
+
+
+@dataclass(frozen=True)
+class EpisodeConfig(Config):
+    """Execution noise and what counts as success, failure or an invalid episode."""
+
+    grasp_position_noise: float = doc(0.004, "Uniform +- noise on the grasp's x, y (m).")
+    grasp_height_noise: float = doc(0.002, "Uniform +- noise on the grasp's z (m).")
+    grasp_yaw_noise: float = doc(np.pi / 60, "Uniform +- noise on the grasp's yaw (rad).")
+    action_position_noise: float = doc(0.004, "Uniform +- noise on the start position (m).")
+    action_yaw_noise: float = doc(np.pi / 90, "Uniform +- noise on the start yaw (rad).")
+    lifted_clearance: float = doc(0.01, "S_G needs the tool's lowest point this far above the table (m).")
+    max_penetration: float = doc(0.02, "A contact deeper than this (m) makes the episode invalid.")
+    max_speed: float = doc(30.0, "Any body faster than this (m/s) makes the episode invalid.")
+    check_every: int = doc(10, "Contacts and stability are checked every this many steps.")
+
+
+@dataclass(frozen=True)
+class SimConfig(Config):
+    """The whole simulated world: physics, table, camera, gripper, episode rules and both tasks."""
+
+    physics: PhysicsConfig = doc(factory=PhysicsConfig, text="Solver options.")
+    world: WorldConfig = doc(factory=WorldConfig, text="Table, ground and object drop.")
+    camera: CameraConfig = doc(factory=CameraConfig, text="Overhead depth camera.")
+    gripper: GripperConfig = doc(factory=GripperConfig, text="Parallel-jaw gripper and its base.")
+    episode: EpisodeConfig = doc(factory=EpisodeConfig, text="Execution noise and episode rules.")
+    sweeping: SweepingConfig = doc(factory=SweepingConfig, text="Sweeping task set-up.")
+    hammering: HammeringConfig = doc(factory=HammeringConfig, text="Hammering task set-up.")

@@ -1,0 +1,593 @@
+"""The simulator: one MuJoCo model per (object, task), reused across scenes and trials.
+
+``reset(seed)`` drops the object, lets it settle, disturbs the camera, takes one depth image by ray
+casting, places the task's props and saves that settled state. ``execute(grasp, action, seed)`` restores
+the saved state, so one scene serves many trials, then runs the grasp (approach, close, lift, hold),
+the transport to the start pose and the task's motion primitive, and labels the trial.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from tognet.errors import TognetError
+from tognet.geometry import Camera, CameraIntrinsics, Grasp
+from tognet.geometry.transforms import make_pose, rot_x, rot_y, rot_z
+from tognet.objects.record import ObjectRecord
+from tognet.sim.config import SimConfig
+from tognet.sim.world import CAMERA_GROUPS, MAX_CANS, PARK, world_xml
+from tognet.tasks import TASK_NAMES, FailureReason, Task, TaskOutcome, get_task
+
+SIM_TASKS = (*TASK_NAMES, "grasping")
+
+# Geom categories used to read contacts quickly.
+OTHER, TABLE, GROUND, OBJECT, FINGER_L, FINGER_R, GRIPPER, CAN, PEG, SLOT = range(10)
+
+
+class SimulationError(TognetError):
+    """The world cannot be built or an episode cannot be set up (bad object, bad input)."""
+
+
+@dataclass
+class Observation:
+    """What the robot sees before acting: one depth image and the camera that took it."""
+
+    depth: NDArray[np.float32]  # (H, W) camera-frame z in metres, NaN holes
+    camera: Camera
+    reference: NDArray[np.float64]  # the task's reference point (world); zeros for grasping
+    task: str
+    object_id: str
+    seed: int
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class TrialResult:
+    """Labels of one trial. An invalid trial (unstable physics) is neither a success nor a failure."""
+
+    grasp_success: bool
+    task_success: bool
+    valid: bool
+    failure: FailureReason
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+class _Unstable(Exception):
+    pass
+
+
+class Simulator:
+    """The world with one object and one task's props (see the module docstring)."""
+
+    def __init__(self, config: SimConfig, task: str, obj: ObjectRecord) -> None:
+        if task not in SIM_TASKS:
+            raise ValueError(f"unknown task '{task}'; known: {', '.join(SIM_TASKS)}")
+        self.config = config
+        self.task_name = task
+        self.task: Task | None = get_task(task, getattr(config, task)) if task in TASK_NAMES else None
+        self.obj = obj
+        try:
+            self.model = mujoco.MjModel.from_xml_string(world_xml(config, obj, task))
+        except ValueError as exc:  # MuJoCo's compile errors
+            raise SimulationError(f"object {obj.object_id}: MuJoCo could not build the world: {exc}") from exc
+        self.data = mujoco.MjData(self.model)
+        m = self.model
+        self._jid = {
+            n: m.joint(n).id for n in ("grip_x", "grip_y", "grip_z", "grip_yaw", "finger_l", "finger_r")
+        }
+        self._qadr = {n: int(m.jnt_qposadr[j]) for n, j in self._jid.items()}
+        self._dadr = {n: int(m.jnt_dofadr[j]) for n, j in self._jid.items()}
+        self._obj_qadr = int(m.jnt_qposadr[m.joint("object").id])
+        self._obj_dadr = int(m.jnt_dofadr[m.joint("object").id])
+        self._obj_body = m.body("object").id
+        self._cat = np.full(m.ngeom, OTHER, dtype=np.int64)
+        self._cat[m.geom("table").id] = TABLE
+        self._cat[m.geom("ground").id] = GROUND
+        for g in range(m.ngeom):
+            name = m.geom(g).name
+            if name.startswith("piece_"):
+                self._cat[g] = OBJECT
+            elif m.geom_bodyid[g] in (m.body("hand").id,):
+                self._cat[g] = GRIPPER
+        self._cat[m.geom("finger_l").id] = FINGER_L
+        self._cat[m.geom("finger_r").id] = FINGER_R
+        self._can_geoms = []
+        if task == "sweeping":
+            self._can_geoms = [m.geom(f"can_{i}").id for i in range(MAX_CANS)]
+            for g in self._can_geoms:
+                self._cat[g] = CAN
+            self._can_qadr = [int(m.jnt_qposadr[m.joint(f"can_{i}").id]) for i in range(MAX_CANS)]
+            self._can_dadr = [int(m.jnt_dofadr[m.joint(f"can_{i}").id]) for i in range(MAX_CANS)]
+            self._can_body = [m.body(f"can_{i}").id for i in range(MAX_CANS)]
+        if task == "hammering":
+            self._cat[m.geom("peg").id] = PEG
+            self._cat[m.geom("slot").id] = SLOT
+            self._peg_qadr = int(m.jnt_qposadr[m.joint("peg").id])
+            self._slot_body = m.body("slot").id
+        self._vertices = self._object_vertices()
+        self._state_spec = mujoco.mjtState.mjSTATE_INTEGRATION
+        self._saved: NDArray[np.float64] | None = None
+        self._scene: dict[str, Any] = {}
+        self._recorder: Any = None
+        self._dt = float(m.opt.timestep)
+        self.timers = {"physics": 0.0, "raycast": 0.0}
+        self._ray_dirs_cam: NDArray[np.float64] | None = None
+
+    # ------------------------------------------------------------------------------------------------
+    def _object_vertices(self) -> NDArray[np.float64]:
+        pts = []
+        for path in self.obj.collision_paths:
+            rows = [line.split()[1:4] for line in path.read_text().splitlines() if line.startswith("v ")]
+            pts.append(np.asarray(rows, dtype=np.float64))
+        return np.concatenate(pts)
+
+    def _step(self, n: int) -> None:
+        t0 = time.perf_counter()
+        mujoco.mj_step(self.model, self.data, nstep=n)
+        self.timers["physics"] += time.perf_counter() - t0
+        if self._recorder is not None:
+            self._recorder(self)
+
+    def _contacts(self) -> NDArray[np.int64]:
+        """(ncon, 2) geom categories of the current contacts, each row sorted."""
+        n = self.data.ncon
+        if n == 0:
+            return np.zeros((0, 2), dtype=np.int64)
+        pairs = np.sort(self._cat[self.data.contact.geom[:n]], axis=1)
+        return pairs
+
+    def _check_stable(self) -> None:
+        d, e = self.data, self.config.episode
+        if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
+            raise _Unstable("NaN in the state")
+        if np.max(np.abs(d.qvel)) > max(e.max_speed, 100.0):
+            raise _Unstable(f"speed {np.max(np.abs(d.qvel)):.1f}")
+        if d.ncon and float(np.min(d.contact.dist[: d.ncon])) < -e.max_penetration:
+            raise _Unstable(f"penetration {-float(np.min(d.contact.dist[: d.ncon])):.3f} m")
+
+    # --- gripper setpoints --------------------------------------------------------------------------
+    def _set_gripper(self, pos: NDArray[np.float64], yaw: float, opening: float) -> None:
+        """Teleport the gripper (joints and setpoints) to a pose, at rest."""
+        d = self.data
+        for i, name in enumerate(("grip_x", "grip_y", "grip_z")):
+            d.qpos[self._qadr[name]] = pos[i]
+            d.act[i] = pos[i]
+            d.ctrl[i] = 0.0
+        d.qpos[self._qadr["grip_yaw"]] = yaw
+        d.act[3] = yaw
+        d.ctrl[3] = 0.0
+        half = 0.5 * opening
+        for name, ctrl in (("finger_l", 4), ("finger_r", 5)):
+            d.qpos[self._qadr[name]] = half
+            d.ctrl[ctrl] = half
+        for name in ("grip_x", "grip_y", "grip_z", "grip_yaw", "finger_l", "finger_r"):
+            d.qvel[self._dadr[name]] = 0.0
+
+    def _move(
+        self,
+        target: NDArray[np.float64] | None,
+        yaw: float | None,
+        speed: float,
+        yaw_speed: float,
+        monitor: Any = None,
+    ) -> None:
+        """Move the setpoints in a straight line to ``target`` / ``yaw`` at the given rates."""
+        d, dt = self.data, self._dt
+        cur = d.act[:4].copy()
+        goal = cur.copy()
+        if target is not None:
+            goal[:3] = target
+        if yaw is not None:
+            goal[3] = yaw
+        delta = goal - cur
+        t_lin = float(np.linalg.norm(delta[:3])) / max(speed, 1e-9)
+        t_yaw = abs(float(delta[3])) / max(yaw_speed, 1e-9)
+        every = self.config.episode.check_every
+        chunk = every * dt
+        # Trapezoidal speed profile in chunks: ramps of accel_time at each end (acceleration-limited).
+        ramp = max(1, round(self.config.gripper.accel_time / chunk))
+        n = max(1, math.ceil(max(t_lin, t_yaw) / chunk - 1e-9)) + ramp
+        k = np.arange(n) + 0.5
+        profile = np.minimum(1.0, np.minimum(k, n - k) / ramp)
+        profile /= profile.sum() * chunk
+        for weight in profile:
+            d.ctrl[:4] = delta * weight
+            self._step(every)
+            self._check_stable()
+            if monitor is not None:
+                monitor()
+        d.ctrl[:4] = 0.0
+        d.act[:4] = goal  # remove round-off
+
+    def _converge(self, tol: float = 0.002, max_time: float = 0.2, monitor: Any = None) -> None:
+        """Let the base catch up with its setpoints (servo lag) until within ``tol`` (m, rad) and slow."""
+        d = self.data
+        q = [self._qadr[n] for n in ("grip_x", "grip_y", "grip_z", "grip_yaw")]
+        v = [self._dadr[n] for n in ("grip_x", "grip_y", "grip_z", "grip_yaw")]
+        self._wait(
+            max_time,
+            monitor,
+            until=lambda: bool(
+                np.max(np.abs(d.qpos[q] - d.act[:4])) < tol and np.max(np.abs(d.qvel[v])) < 0.05
+            ),
+        )
+
+    def _wait(self, duration: float, monitor: Any = None, until: Any = None) -> None:
+        every = self.config.episode.check_every
+        n = max(1, round(duration / self._dt))
+        done = 0
+        while done < n:
+            k = min(every, n - done)
+            self._step(k)
+            done += k
+            self._check_stable()
+            if monitor is not None:
+                monitor()
+            if until is not None and until():
+                return
+
+    # --- scene --------------------------------------------------------------------------------------
+    def _camera(self, rng: np.random.Generator) -> Camera:
+        c = self.config.camera
+        intr = CameraIntrinsics(
+            width=c.width,
+            height=c.height,
+            fx=c.fx * (1 + rng.uniform(-c.focal_noise, c.focal_noise)),
+            fy=c.fy * (1 + rng.uniform(-c.focal_noise, c.focal_noise)),
+            cx=(c.width - 1) / 2 + rng.uniform(-c.principal_noise, c.principal_noise),
+            cy=(c.height - 1) / 2 + rng.uniform(-c.principal_noise, c.principal_noise),
+        )
+        nominal = Camera.looking_down(intr, c.position, yaw=c.yaw)
+        t = np.asarray(c.translation_noise)
+        r = c.rotation_noise
+        jitter = rot_z(rng.uniform(-r, r)) @ rot_y(rng.uniform(-r, r)) @ rot_x(rng.uniform(-r, r))
+        rotation = jitter @ nominal.pose[:3, :3]
+        position = nominal.position + rng.uniform(-t, t)
+        return Camera(intr, make_pose(rotation, position))
+
+    def _static_depth(
+        self, origin: NDArray[np.float64], dirs: tuple[NDArray[np.float64], ...]
+    ) -> NDArray[np.float64]:
+        """Ray parameter (= camera-frame z) to the table slab or the ground plane, vectorised; inf if none."""
+        w = self.config.world
+        lx, ly, thick = 0.5 * w.table_size[0], 0.5 * w.table_size[1], 0.04
+        dx, dy, dz = dirs
+        ox, oy, oz = origin
+        out = np.full(dx.shape, np.inf)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            if oz > 0:  # the table top, seen from above
+                t = -oz / dz
+                hit = (t > 0) & (np.abs(ox + t * dx) <= lx) & (np.abs(oy + t * dy) <= ly)
+                out = np.where(hit, t, out)
+            for axis_o, axis_d, other_o, other_d, half, other_half in (
+                (ox, dx, oy, dy, lx, ly),
+                (oy, dy, ox, dx, ly, lx),
+            ):
+                for sign in (-1.0, 1.0):  # the table's side faces
+                    t = (sign * half - axis_o) / axis_d
+                    z = oz + t * dz
+                    hit = (t > 0) & (np.abs(other_o + t * other_d) <= other_half) & (z <= 0) & (z >= -thick)
+                    out = np.where(hit & (t < out), t, out)
+            t = (-w.table_height - oz) / dz
+            out = np.where((t > 0) & (t < out), t, out)
+        return out
+
+    def render_depth(self, camera: Camera, rng: np.random.Generator | None = None) -> NDArray[np.float32]:
+        """Depth image (camera-frame z, metres, NaN holes) by ray casting (no OpenGL).
+
+        The table and the ground are intersected analytically for every pixel; MuJoCo's ray caster
+        (``mj_multiRay``, restricted to the table and the object's visual mesh) runs only for the
+        pixels inside the projection of the object's bounding box. Task props and the gripper (parked
+        out of view) are not seen.
+        """
+        t0 = time.perf_counter()
+        c = self.config.camera
+        k = camera.intrinsics
+        a = (np.arange(k.width, dtype=np.float64) - k.cx) / k.fx
+        b = (np.arange(k.height, dtype=np.float64) - k.cy) / k.fy
+        r = camera.pose[:3, :3]
+        # World direction of pixel (u, v): R @ (a_u, b_v, 1); its camera-frame z is 1.
+        dirs = tuple(r[i, 0] * a[None, :] + r[i, 1] * b[:, None] + r[i, 2] for i in range(3))
+        origin = camera.position
+        t = self._static_depth(origin, dirs).ravel()
+        # The object's pixels: project its world bounding box, cast MuJoCo rays there only.
+        pos, rot = self.object_pose()
+        pts = self._vertices @ rot.T + pos
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        corners = np.array(
+            [[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+        )
+        uv, z = camera.project(corners)
+        if np.all(z > 0):
+            u0, v0 = np.floor(uv.min(axis=0)).astype(int) - 2
+            u1, v1 = np.ceil(uv.max(axis=0)).astype(int) + 2
+            u0, v0 = max(u0, 0), max(v0, 0)
+            u1, v1 = min(u1, k.width - 1), min(v1, k.height - 1)
+            if u1 >= u0 and v1 >= v0:
+                vv, uu = np.mgrid[v0 : v1 + 1, u0 : u1 + 1]
+                idx = (vv * k.width + uu).ravel()
+                sub = np.stack([dd.ravel()[idx] for dd in dirs], axis=1)
+                n = len(idx)
+                groups = np.zeros(6, dtype=np.uint8)
+                for g in CAMERA_GROUPS:
+                    groups[g] = 1
+                geomid = np.empty(n, dtype=np.int32)
+                dist = np.empty(n, dtype=np.float64)
+                mujoco.mj_multiRay(
+                    self.model,
+                    self.data,
+                    origin.astype(np.float64),
+                    sub.ravel(),
+                    groups,
+                    0,
+                    -1,
+                    geomid,
+                    dist,
+                    None,
+                    n,
+                    c.max_range,
+                )
+                t[idx] = np.where(geomid >= 0, np.minimum(dist, t[idx]), t[idx])
+        depth = t.astype(np.float32)
+        depth[~np.isfinite(depth) | (depth > c.max_range)] = np.nan
+        if rng is not None and c.depth_noise > 0:
+            depth += rng.normal(0.0, c.depth_noise, size=depth.shape).astype(np.float32)
+        if rng is not None and c.hole_fraction > 0:
+            depth[rng.random(depth.shape) < c.hole_fraction] = np.nan
+        self.timers["raycast"] += time.perf_counter() - t0
+        return depth.reshape(k.height, k.width)
+
+    def _place_props(self, layout: dict[str, Any]) -> None:
+        m, d = self.model, self.data
+        if self.task_name == "sweeping":
+            c = self.config.sweeping
+            h = self.config.world.table_height
+            for i in range(MAX_CANS):
+                qa = self._can_qadr[i]
+                if i < len(layout["cans"]):
+                    x, y, mass = layout["cans"][i]
+                    d.qpos[qa : qa + 3] = (x, y, 0.5 * c.can_height)
+                else:
+                    mass = 0.2
+                    d.qpos[qa : qa + 3] = (1.5 + 0.3 * i, 1.5, -h + 0.5 * c.can_height)
+                d.qpos[qa + 3 : qa + 7] = (1, 0, 0, 0)
+                body = self._can_body[i]
+                r, hh = c.can_radius, c.can_height
+                m.body_mass[body] = mass
+                ixx = mass * (3 * r * r + hh * hh) / 12
+                m.body_inertia[body] = (ixx, ixx, 0.5 * mass * r * r)
+        elif self.task_name == "hammering":
+            x, y = layout["slot"]
+            m.body_pos[self._slot_body] = (x, y, self.config.hammering.peg_height)
+            d.qpos[self._peg_qadr] = 0.0
+
+    def reset(self, seed: int) -> Observation:
+        """A new scene from ``seed``: drop and settle the object, take the depth image, place the props."""
+        m, d, w = self.model, self.data, self.config.world
+        rng = np.random.default_rng([int(seed), 0x5EED])
+        layout = self.task.sample_layout(rng) if self.task is not None else {}
+        for attempt in range(5):
+            mujoco.mj_resetData(m, d)
+            self._set_gripper(np.asarray(PARK), 0.0, self.config.gripper.max_opening)
+            yaw = rng.uniform(0, 2 * np.pi)
+            xy = (rng.uniform(*w.drop_x), rng.uniform(*w.drop_y))
+            # Place the object's centre of mass over the drop point, its lowest point drop_height above.
+            com = np.asarray(self.obj.com)
+            rc = rot_z(yaw)
+            offset = rc @ com
+            z = -float(np.min(self._vertices[:, 2])) + w.drop_height
+            qa = self._obj_qadr
+            d.qpos[qa : qa + 3] = (xy[0] - offset[0], xy[1] - offset[1], z)
+            d.qpos[qa + 3 : qa + 7] = (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
+            self._place_props(layout)
+            mujoco.mj_forward(m, d)
+            try:
+                self._settle()
+            except _Unstable as exc:
+                if attempt == 4:
+                    raise SimulationError(
+                        f"object {self.obj.object_id}: unstable while settling ({exc})"
+                    ) from exc
+                continue
+            pos = d.xipos[self._obj_body]
+            if abs(pos[0]) < 0.5 * w.table_size[0] and abs(pos[1]) < 0.5 * w.table_size[1] and pos[2] > -0.01:
+                break
+        else:
+            raise SimulationError(f"object {self.obj.object_id}: fell off the table in 5 drops (seed {seed})")
+        d.time = 0.0
+        camera = self._camera(rng)
+        depth = self.render_depth(camera, rng)
+        reference = self.task.reference(layout) if self.task is not None else np.zeros(3)
+        self._saved = np.empty(mujoco.mj_stateSize(m, self._state_spec))
+        mujoco.mj_getState(m, d, self._saved, self._state_spec)
+        self._scene = {
+            "seed": int(seed),
+            "layout": layout,
+            "reference": reference,
+            "object_com": d.xipos[self._obj_body].copy(),
+        }
+        return Observation(
+            depth=depth,
+            camera=camera,
+            reference=reference,
+            task=self.task_name,
+            object_id=self.obj.object_id,
+            seed=int(seed),
+            info={"layout": layout},
+        )
+
+    def _settle(self) -> None:
+        w = self.config.world
+        da = self._obj_dadr
+        steps = 0
+        limit = round(w.settle_time / self._dt)
+        while steps < limit:
+            self._step(10)
+            steps += 10
+            self._check_stable()
+            if steps >= 60 and np.max(np.abs(self.data.qvel[da : da + 6])) < w.settle_speed:
+                break
+
+    def save_state(self) -> NDArray[np.float64]:
+        """The full integration state (a copy), for :meth:`restore_state`."""
+        state = np.empty(mujoco.mj_stateSize(self.model, self._state_spec))
+        mujoco.mj_getState(self.model, self.data, state, self._state_spec)
+        return state
+
+    def restore_state(self, state: NDArray[np.float64]) -> None:
+        """Put the world back in a state from :meth:`save_state`."""
+        mujoco.mj_setState(self.model, self.data, state, self._state_spec)
+        mujoco.mj_forward(self.model, self.data)
+
+    # --- trial --------------------------------------------------------------------------------------
+    def object_pose(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The object's body position and rotation matrix (world)."""
+        b = self._obj_body
+        return self.data.xpos[b].copy(), self.data.xmat[b].reshape(3, 3).copy()
+
+    def execute(self, grasp: Grasp, action: Any = None, seed: int = 0) -> TrialResult:
+        """Restore the settled scene and run one trial: grasp, lift, transport, primitive; label it."""
+        if self._saved is None:
+            raise SimulationError("call reset(seed) before execute()")
+        if self.task is not None:
+            action = self.task.check_action(np.zeros(4) if action is None else action)
+        mujoco.mj_setState(self.model, self.data, self._saved, self._state_spec)
+        rng = np.random.default_rng([int(self._scene["seed"]), int(seed), 0xE8EC])
+        info: dict[str, Any] = {"seed": int(seed), "scene_seed": self._scene["seed"]}
+        try:
+            return self._execute(grasp, action, rng, info)
+        except _Unstable as exc:
+            info["unstable"] = str(exc)
+            return TrialResult(False, False, False, FailureReason.UNSTABLE, info)
+
+    def _execute(
+        self, grasp: Grasp, action: Any, rng: np.random.Generator, info: dict[str, Any]
+    ) -> TrialResult:
+        m, d = self.model, self.data
+        g, e = self.config.gripper, self.config.episode
+        pn, hn, yn = e.grasp_position_noise, e.grasp_height_noise, e.grasp_yaw_noise
+        pos = grasp.position + rng.uniform([-pn, -pn, -hn], [pn, pn, hn])
+        yaw = float(grasp.phi + rng.uniform(-yn, yn))
+        min_z = 0.5 * g.pad_size[2] + 0.003
+        if pos[2] < min_z:
+            info["grasp_z_clamped"] = float(pos[2])
+            pos[2] = min_z
+        self._set_gripper(pos + np.array([0, 0, g.approach_height]), yaw, g.max_opening)
+        mujoco.mj_forward(m, d)
+        # Approach, close, lift, hold.
+        self._move(pos, None, g.approach_speed, g.yaw_speed)
+        self._converge()
+        d.ctrl[4] = d.ctrl[5] = -0.02
+        self._wait(g.close_time)
+        lift_z = max(g.lift_height, pos[2] + g.min_lift)
+        self._move(np.array([pos[0], pos[1], lift_z]), None, g.approach_speed, g.yaw_speed)
+        self._wait(g.hold_time)
+        held = self._held()
+        lifted = self._object_clear()
+        info["object_lift"] = float(d.xipos[self._obj_body][2] - self._scene["object_com"][2])
+        grasp_ok = held and lifted
+        if not grasp_ok:
+            return TrialResult(False, False, True, FailureReason.GRASP_FAILED, info)
+        if self.task is None:
+            return TrialResult(True, False, True, FailureReason.NONE, info)
+        # Transport to the start pose, high above the props, then down.
+        start, start_yaw = self.task.start_pose(self._scene["reference"], action)
+        an, ayn = e.action_position_noise, e.action_yaw_noise
+        start = start + rng.uniform(-an, an, size=3)
+        start_yaw += float(rng.uniform(-ayn, ayn))
+        # Turn the wrist the short way round to the start yaw.
+        cur_yaw = float(d.act[3])
+        start_yaw = cur_yaw + (start_yaw - cur_yaw + np.pi) % (2 * np.pi) - np.pi
+        info["start_pose"] = [*map(float, start), float(start_yaw)]
+        high = max(g.transport_clearance, lift_z)
+        hit_before = [False]
+
+        def watch_props() -> None:
+            pairs = self._contacts()
+            if len(pairs) and np.any(
+                np.isin(pairs[:, 0], (OBJECT, FINGER_L, FINGER_R, GRIPPER))
+                & np.isin(pairs[:, 1], (CAN, PEG, SLOT))
+            ):
+                hit_before[0] = True
+
+        self._move(np.array([start[0], start[1], high]), start_yaw, g.linear_speed, g.yaw_speed, watch_props)
+        self._move(start, None, g.linear_speed, g.yaw_speed, watch_props)
+        self._converge(monitor=watch_props)
+        if hit_before[0]:
+            return TrialResult(True, False, True, FailureReason.COLLISION_BEFORE_MOTION, info)
+        if not self._held():
+            return TrialResult(True, False, True, FailureReason.DROPPED, info)
+        return self._primitive(info)
+
+    def _held(self) -> bool:
+        pairs = self._contacts()
+        if not len(pairs):
+            return False
+        left = np.any((pairs[:, 0] == OBJECT) & (pairs[:, 1] == FINGER_L))
+        right = np.any((pairs[:, 0] == OBJECT) & (pairs[:, 1] == FINGER_R))
+        return bool(left and right)
+
+    def _object_clear(self) -> bool:
+        pairs = self._contacts()
+        touching = len(pairs) and np.any((pairs[:, 0] == TABLE) & (pairs[:, 1] == OBJECT))
+        pos, rot = self.object_pose()
+        lowest = float(np.min(self._vertices @ rot.T[:, 2] + pos[2]))
+        return (not touching) and lowest > self.config.episode.lifted_clearance
+
+    def _primitive(self, info: dict[str, Any]) -> TrialResult:
+        assert self.task is not None
+        d, g = self.data, self.config.gripper
+        touched = [False]
+        n_cans = len(self._scene["layout"].get("cans", []))
+        on_ground = [False] * n_cans
+        targets = (CAN,) if self.task_name == "sweeping" else (PEG,)
+
+        def watch() -> None:
+            pairs = self._contacts()
+            if not len(pairs):
+                return
+            if np.any(
+                np.isin(pairs[:, 0], (OBJECT, FINGER_L, FINGER_R, GRIPPER)) & np.isin(pairs[:, 1], targets)
+            ):
+                touched[0] = True
+            if n_cans:
+                geoms = self.data.contact.geom[: self.data.ncon]
+                ground = self._cat[geoms] == GROUND
+                for i in range(n_cans):
+                    if not on_ground[i] and np.any(
+                        np.any(geoms == self._can_geoms[i], axis=1) & np.any(ground, axis=1)
+                    ):
+                        on_ground[i] = True
+
+        for motion in self.task.primitive():
+            target = d.act[:3] + np.asarray(motion.delta)
+            yaw = float(d.act[3] + motion.dyaw)
+            self._move(target, yaw, motion.speed or g.linear_speed, motion.yaw_speed or g.yaw_speed, watch)
+        held_after = self._held()
+        settle = getattr(self.task.config, "settle_time", 0.2)
+        if n_cans:
+            self._wait(settle, watch, until=lambda: all(on_ground))
+        else:
+            self._wait(settle, watch)
+        still = False
+        values: dict[str, Any] = {}
+        if n_cans:
+            values["cans_on_ground"] = list(on_ground)
+            speeds = [float(np.linalg.norm(d.qvel[a : a + 3])) for a in self._can_dadr[:n_cans]]
+            still = any(s > 0.05 for s in speeds) and not all(on_ground)
+        if self.task_name == "hammering":
+            c = self.config.hammering
+            values["peg_out"] = float(0.5 * c.peg_length - d.qpos[self._peg_qadr])
+        outcome = TaskOutcome(touched_targets=touched[0], still_moving=still, values=values)
+        success, failure = self.task.evaluate(outcome)
+        info.update(values)
+        info["held_after_primitive"] = held_after
+        info["touched_targets"] = touched[0]
+        return TrialResult(True, success, True, failure, info)

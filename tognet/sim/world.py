@@ -1,0 +1,199 @@
+"""The MJCF of the world: table, ground, the object, the gripper and the task's props.
+
+Geom groups (what the depth camera sees is chosen by group):
+0 table and ground (seen), 1 the object's visual mesh (seen), 2 the gripper, 3 the object's convex
+collision pieces, 4 task props, 5 decoration (table legs; no collisions).
+"""
+
+from __future__ import annotations
+
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+from tognet.objects.record import ObjectRecord
+from tognet.sim.config import SimConfig
+
+GROUP_STATIC, GROUP_OBJECT_VISUAL, GROUP_GRIPPER, GROUP_OBJECT_COLLISION, GROUP_PROPS, GROUP_DECOR = range(6)
+#: Geom groups the depth camera's rays can hit.
+CAMERA_GROUPS = (GROUP_STATIC, GROUP_OBJECT_VISUAL)
+MAX_CANS = 2
+PARK = (0.3, 0.0, 1.2)
+
+
+def _v(values: object) -> str:
+    return " ".join(f"{float(v):.9g}" for v in np.ravel(values))
+
+
+def _object_xml(config: SimConfig, obj: ObjectRecord) -> tuple[list[str], list[str]]:
+    w = config.world
+    inertia = np.asarray(obj.inertia, dtype=np.float64)
+    full = [inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]]
+    assets = [
+        f'<mesh name="piece_{i:02d}" file={quoteattr(str(path))}/>'
+        for i, path in enumerate(obj.collision_paths)
+    ]
+    assets.append(f'<mesh name="object_visual" file={quoteattr(str(obj.path(obj.visual_mesh)))}/>')
+    friction = f"{obj.friction:.6g} {w.object_torsional_friction:g} {w.object_rolling_friction:g}"
+    body = [
+        '<body name="object" pos="0 0 0.5">',
+        '  <freejoint name="object"/>',
+        f'  <inertial pos="{_v(obj.com)}" mass="{obj.mass:.9g}" fullinertia="{_v(full)}"/>',
+    ]
+    body += [
+        f'  <geom name="piece_{i:02d}" type="mesh" mesh="piece_{i:02d}" friction="{friction}" condim="4" '
+        f'priority="1" group="{GROUP_OBJECT_COLLISION}" rgba="0.8 0.5 0.2 1"/>'
+        for i in range(len(obj.collision_paths))
+    ]
+    body.append(
+        f'  <geom name="object_visual" type="mesh" mesh="object_visual" contype="0" conaffinity="0" '
+        f'group="{GROUP_OBJECT_VISUAL}" rgba="0.85 0.55 0.25 1"/>'
+    )
+    body.append("</body>")
+    return assets, body
+
+
+def _gripper_xml(config: SimConfig) -> tuple[list[str], list[str]]:
+    g = config.gripper
+    t, pw, ph = g.pad_size
+    half_open = 0.5 * g.max_opening
+    top = 0.5 * ph + g.finger_length  # finger top = palm bottom, above the grasp centre
+    link_h = 0.5 * (top + 0.5 * ph)
+    link_z = top - link_h
+    pad = (
+        f'friction="{g.pad_friction:g} {g.pad_torsional_friction:g} 0.0001" condim="4" '
+        f'group="{GROUP_GRIPPER}" rgba="0.2 0.2 0.25 1"'
+    )
+    carriage = 'mass="1.0" diaginertia="0.01 0.01 0.01"'
+    body = [
+        '<body name="carriage_x" gravcomp="1">',
+        '  <joint name="grip_x" type="slide" axis="1 0 0" range="-2 2" damping="5"/>',
+        f"  <inertial pos='0 0 0' {carriage}/>",
+        '  <body name="carriage_y" gravcomp="1">',
+        '    <joint name="grip_y" type="slide" axis="0 1 0" range="-2 2" damping="5"/>',
+        f"    <inertial pos='0 0 0' {carriage}/>",
+        '    <body name="carriage_z" gravcomp="1">',
+        '      <joint name="grip_z" type="slide" axis="0 0 1" range="-0.2 2" damping="5"/>',
+        f"      <inertial pos='0 0 0' {carriage}/>",
+        '      <body name="hand" gravcomp="1">',
+        f'        <joint name="grip_yaw" type="hinge" axis="0 0 1" armature="{g.yaw_armature:g}" damping="0.01"/>',
+        f'        <inertial pos="0 0 {top + 0.015:.4f}" mass="{g.hand_mass:g}" diaginertia="4e-4 2e-4 4e-4"/>',
+        f'        <geom name="palm" type="box" size="{half_open + t + 0.01:.4f} 0.025 0.015" '
+        f'pos="0 0 {top + 0.015:.4f}" group="{GROUP_GRIPPER}" rgba="0.3 0.3 0.35 1"/>',
+        f'        <geom name="wrist" type="cylinder" size="0.03 0.05" pos="0 0 {top + 0.08:.4f}" '
+        f'group="{GROUP_GRIPPER}" rgba="0.5 0.5 0.55 1"/>',
+    ]
+    for side, sign in (("l", -1.0), ("r", 1.0)):
+        body += [
+            f'        <body name="finger_{side}" gravcomp="1">',
+            f'          <joint name="finger_{side}" type="slide" axis="{sign:g} 0 0" range="0 {half_open:.4f}" '
+            'damping="2"/>',
+            '          <inertial pos="0 0 0.02" mass="0.03" diaginertia="1e-5 1e-5 1e-5"/>',
+            f'          <geom name="finger_{side}" type="box" size="{0.5 * t:.4f} {0.5 * pw:.4f} {link_h:.4f}" '
+            f'pos="{sign * 0.5 * t:.4f} 0 {link_z:.4f}" {pad}/>',
+            "        </body>",
+        ]
+    body += ["      </body>", "    </body>", "  </body>", "</body>"]
+    v, vy = g.linear_speed, g.yaw_speed
+    act = [
+        f'<intvelocity name="act_{ax}" joint="grip_{ax}" kp="{g.linear_kp:g}" kv="{g.linear_kv:g}" '
+        f'ctrlrange="{-v:g} {v:g}" actrange="-2 2" forcerange="{-g.linear_force:g} {g.linear_force:g}"/>'
+        for ax in ("x", "y", "z")
+    ]
+    act.append(
+        f'<intvelocity name="act_yaw" joint="grip_yaw" kp="{g.yaw_kp:g}" kv="{g.yaw_kv:g}" '
+        f'ctrlrange="{-vy:g} {vy:g}" actrange="-30 30" forcerange="{-g.yaw_torque:g} {g.yaw_torque:g}"/>'
+    )
+    for side in ("l", "r"):
+        act.append(
+            f'<position name="act_finger_{side}" joint="finger_{side}" kp="{g.finger_kp:g}" kv="20" '
+            f'ctrlrange="-0.02 {half_open:.4f}" forcerange="{-g.finger_force:g} {g.finger_force:g}"/>'
+        )
+    return body, act
+
+
+def _props_xml(config: SimConfig, task: str) -> list[str]:
+    h = config.world.table_height
+    if task == "sweeping":
+        c = config.sweeping
+        out = []
+        for i in range(MAX_CANS):
+            out += [
+                f'<body name="can_{i}" pos="{1.5 + 0.3 * i:g} 1.5 {-h + 0.5 * c.can_height:.4f}">',
+                f'  <freejoint name="can_{i}"/>',
+                f'  <geom name="can_{i}" type="cylinder" size="{c.can_radius:g} {0.5 * c.can_height:g}" '
+                f'mass="0.2" friction="{c.can_friction:g} 0.005 0.0001" group="{GROUP_PROPS}" '
+                'rgba="0.75 0.1 0.1 1"/>',
+                "</body>",
+            ]
+        return out
+    if task == "hammering":
+        c = config.hammering
+        depth, width, height = c.slot_size
+        s, length = c.peg_size, c.peg_length
+        # The slot body sits on the slot face at the peg's axis height; the peg slides along +x into it.
+        # A very stiff friction-loss constraint (solreffriction at the minimum safe time constant) stops
+        # the creep MuJoCo's soft dry friction shows under a slow push.
+        dt = config.physics.timestep
+        return [
+            f'<body name="slot" pos="0.3 0 {c.peg_height:g}">',
+            f'  <geom name="slot" type="box" size="{0.5 * depth:g} {0.5 * width:g} {0.5 * height:g}" '
+            f'pos="{0.5 * depth:g} 0 {0.5 * height - c.peg_height:g}" group="{GROUP_PROPS}" '
+            'rgba="0.3 0.45 0.7 1"/>',
+            '  <body name="peg">',
+            f'    <joint name="peg" type="slide" axis="1 0 0" range="-0.001 {0.5 * length + 0.001:g}" '
+            f'frictionloss="{c.peg_friction:g}" solreffriction="{2 * dt:g} 1" solimpfriction="0.99 0.999 0.001"/>',
+            f'    <geom name="peg" type="box" size="{0.5 * length:g} {0.5 * s:g} {0.5 * s:g}" mass="{c.peg_mass:g}" '
+            f'friction="0.5 0.005 0.0001" group="{GROUP_PROPS}" rgba="0.9 0.8 0.2 1"/>',
+            "  </body>",
+            "</body>",
+        ]
+    return []
+
+
+def world_xml(config: SimConfig, obj: ObjectRecord, task: str) -> str:
+    """The whole world as an MJCF string (meshes by absolute path)."""
+    p, w = config.physics, config.world
+    lx, ly = 0.5 * w.table_size[0], 0.5 * w.table_size[1]
+    h = w.table_height
+    assets, obj_body = _object_xml(config, obj)
+    grip_body, actuators = _gripper_xml(config)
+    legs = [
+        f'<geom type="box" size="0.03 0.03 {0.5 * h:.4f}" pos="{sx * (lx - 0.05):.4f} {sy * (ly - 0.05):.4f} '
+        f'{-0.5 * h - 0.02:.4f}" contype="0" conaffinity="0" group="{GROUP_DECOR}" rgba="0.45 0.35 0.25 1"/>'
+        for sx in (-1, 1)
+        for sy in (-1, 1)
+    ]
+    lines = [
+        '<mujoco model="tognet_world">',
+        '  <compiler angle="radian" autolimits="true"/>',
+        f'  <option timestep="{p.timestep:g}" integrator="implicitfast" cone="elliptic" impratio="{p.impratio:g}" '
+        f'iterations="{p.iterations}" noslip_iterations="{p.noslip_iterations}" gravity="0 0 {-p.gravity:g}">',
+        '    <flag autoreset="disable"/>',
+        "  </option>",
+        '  <visual><global offwidth="640" offheight="480"/><quality shadowsize="1024"/></visual>',
+        "  <asset>",
+        '    <texture name="grid" type="2d" builtin="checker" rgb1="0.85 0.85 0.85" rgb2="0.75 0.75 0.75" '
+        'width="256" height="256"/>',
+        '    <material name="floor" texture="grid" texrepeat="8 8"/>',
+        *[f"    {a}" for a in assets],
+        "  </asset>",
+        "  <worldbody>",
+        '    <light pos="0 -0.6 2.0" dir="0 0.3 -1" diffuse="0.8 0.8 0.8"/>',
+        f'    <geom name="ground" type="plane" size="4 4 0.1" pos="0 0 {-h:g}" material="floor" '
+        f'friction="{w.table_friction:g} 0.005 0.0001" group="{GROUP_STATIC}"/>',
+        f'    <geom name="table" type="box" size="{lx:g} {ly:g} 0.02" pos="0 0 -0.02" '
+        f'friction="{w.table_friction:g} 0.005 0.0001" group="{GROUP_STATIC}" rgba="0.6 0.5 0.4 1"/>',
+        *[f"    {leg}" for leg in legs],
+        *[f"    {line}" for line in obj_body],
+        *[f"    {line}" for line in grip_body],
+        *[f"    {line}" for line in _props_xml(config, task)],
+        "  </worldbody>",
+        "  <actuator>",
+        *[f"    {a}" for a in actuators],
+        "  </actuator>",
+        *(['  <contact><exclude body1="slot" body2="peg"/></contact>'] if task == "hammering" else []),
+        "</mujoco>",
+        "",
+    ]
+    return "\n".join(lines)
