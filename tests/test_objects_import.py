@@ -20,6 +20,12 @@ def _write_cases(src: Path) -> None:
     head.apply_translation((0.1, 0.0, 0.005))
     trimesh.boolean.union([handle, head], engine="manifold").export(src / "good_hammer.obj")
     trimesh.creation.annulus(r_min=0.02, r_max=0.04, height=0.03).export(src / "Good Ring.ply")
+    box = trimesh.creation.box(extents=(0.12, 0.04, 0.02))
+    trimesh.Trimesh(box.vertices, box.faces[1:]).export(
+        src / "holed_box.obj"
+    )  # one triangle missing: repaired
+    box.invert()
+    box.export(src / "inside_out.stl")  # inward normals: repaired
     tube = trimesh.creation.cylinder(radius=0.02, height=0.2, sections=32)
     side = np.abs(tube.face_normals[:, 2]) < 0.5
     trimesh.Trimesh(tube.vertices, tube.faces[side]).export(src / "open_tube.obj")
@@ -64,8 +70,16 @@ def test_each_bad_mesh_gets_its_error(imported):
 def test_good_files_are_imported_and_existing_objects_kept(imported):
     _src, out, report = imported
     ids = sorted(r.object_id for r in report.records)
-    assert ids == ["imported-good_bar", "imported-good_hammer", "imported-good_ring"]
+    assert ids == [
+        "imported-good_bar",
+        "imported-good_hammer",
+        "imported-good_ring",
+        "imported-holed_box",
+        "imported-inside_out",
+    ]
     catalog = {r.object_id: r for r in load_catalog(out)}
+    for name in ("imported-holed_box", "imported-inside_out"):
+        assert catalog[name].volume == pytest.approx(0.12 * 0.04 * 0.02, rel=1e-6)
     assert set(catalog) == {*ids, "primitive-test-000000"}
     assert not (out / ".importing").exists()
     bar = catalog["imported-good_bar"]
