@@ -88,6 +88,12 @@ class GripperConfig(Config):
     finger_kp: float = doc(2000.0, "Finger position-servo stiffness (N/m); saturates at the force limit.")
     pad_friction: float = doc(1.0, "Sliding friction of the finger pads.")
     pad_torsional_friction: float = doc(0.02, "Torsional friction of the pads (m), condim 4.")
+    pad_solref: tuple[float, float] = doc(
+        (0.01, 1.0), "Pad contact solref (time constant s, damping ratio): how stiff the grip is."
+    )
+    pad_solimp: tuple[float, float, float] = doc(
+        (0.95, 0.99, 0.001), "Pad contact solimp (dmin, dmax, width): impedance of the grip contacts."
+    )
     pad_size: tuple[float, float, float] = doc(
         (0.008, 0.04, 0.03), "Finger pad box (m): thickness along the jaw axis, width, height."
     )

@@ -61,7 +61,8 @@ def _gripper_xml(config: SimConfig) -> tuple[list[str], list[str]]:
     link_h = 0.5 * (top + 0.5 * ph)
     link_z = top - link_h
     pad = (
-        f'friction="{g.pad_friction:g} {g.pad_torsional_friction:g} 0.0001" condim="4" '
+        f'friction="{g.pad_friction:g} {g.pad_torsional_friction:g} 0.0001" condim="4" priority="2" '
+        f'solref="{g.pad_solref[0]:g} {g.pad_solref[1]:g}" solimp="{_v(g.pad_solimp)} 0.5 2" '
         f'group="{GROUP_GRIPPER}" rgba="0.2 0.2 0.25 1"'
     )
     carriage = 'mass="1.0" diaginertia="0.01 0.01 0.01"'

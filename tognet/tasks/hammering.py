@@ -44,7 +44,7 @@ class HammeringConfig(Config):
     peg_height: float = doc(0.045, "Height of the peg's axis above the table (m).")
     peg_mass: float = doc(0.05, "Peg mass (kg).")
     peg_friction: float = doc(
-        15.0, "Dry friction resisting the peg's slide (N): frictionloss on its joint, stiff solreffriction."
+        12.0, "Dry friction resisting the peg's slide (N): frictionloss on its joint, stiff solreffriction."
     )
     slot_size: tuple[float, float, float] = doc(
         (0.12, 0.1, 0.09), "Slot block size (m): depth along x, width along y, height (from the table)."
