@@ -1,18 +1,22 @@
 """Antipodal grasp candidates from one depth image, in the manner of Dex-Net 2.0.
 
-1. Edge pixels: the depth gradient (central differences, metres per pixel) exceeds a threshold.
+1. Edge pixels: the depth gradient (central differences, metres per pixel) exceeds a threshold; only
+   the near side of each depth step is kept (the object's rim, not the background below it).
 2. Each edge pixel gets a contact point (deprojected at the nearest-to-camera depth of its 3x3
-   neighbourhood, i.e. on the object's top rim) and an outward surface normal: the image-plane depth
-   gradient (it points from the object towards the farther background), mapped into the world table
-   plane through the camera model (so a slightly tilted camera is handled exactly).
+   neighbourhood, i.e. on the object's top rim) and an outward surface normal: the Gaussian-weighted
+   mean depth gradient of a small window (it points from the object towards the farther background),
+   mapped into the world table plane through the camera model (a slightly tilted camera is handled
+   exactly). Pixels whose window gradients disagree (corners: undefined normal) are dropped.
 3. Pairs of contacts closer than the maximum opening (a k-d tree in the table plane) whose normals
    are antiparallel within the friction cone (half angle atan(mu)) around the line joining them are
-   antipodal. The grasp centre is their midpoint, the jaw axis (phi) the world yaw of that line.
-4. Grasp height: the highest surface between the contacts (world heights from the depth image) minus
-   a sampled offset, never lower than the table plus a finger clearance. Candidates whose fingers would
-   land on something higher than the grasp centre are dropped.
-5. Distinct candidates: one pair per cell of (centre pixel / separation, jaw-axis angle / bin), cells
-   chosen at random, up to ``max_candidates``.
+   antipodal. The jaw axis (phi) is the world yaw of that line. The analytic quality maps the worse
+   of the two normal-to-axis cosines from the cone boundary (0) to perfectly aligned (1).
+4. Distinct candidates: one pair per cell of (centre pixel / separation, jaw-axis angle / bin), cells
+   taken in random order.
+5. Grasp height: the highest surface between the contacts (world heights from the depth image) minus
+   a sampled offset, never lower than the table plus a finger clearance. A scan of the jaw line at that
+   height finds where the jaws really touch (the grasp centre is their midpoint, the width their
+   distance) and drops grasps that do not fit the opening or whose fingers would land on something.
 """
 
 from __future__ import annotations
@@ -42,6 +46,16 @@ class AntipodalConfig(Config):
     normal_radius: int = doc(
         3, "Half size (pixels) of the Gaussian-weighted window averaging the depth gradient for normals."
     )
+    min_normal_coherence: float = doc(
+        0.85,
+        "Edge pixels whose window gradients agree less than this (|mean| / mean length) are dropped: "
+        "near corners the normal is undefined.",
+    )
+    min_quality: float = doc(
+        0.05,
+        "Pairs with an antipodality score below this are dropped: right at the friction-cone boundary a "
+        "few degrees of normal error decide, so such pairs are not reliably antipodal.",
+    )
     max_edge_pixels: int = doc(1500, "Edge pixels kept (random subset) before pairing, to bound the cost.")
     max_candidates: int = doc(200, "Maximum number of distinct candidates returned.")
     min_pixel_separation: float = doc(
@@ -63,11 +77,22 @@ class AntipodalConfig(Config):
         0.005, "The top surface between the contacts must rise this much (m) above the table."
     )
     collision_check: bool = doc(
-        True, "Drop candidates whose fingers land on a surface above the gripper centre."
+        True, "Scan the jaw line: refine contacts, drop grasps too wide or whose fingers land on something."
+    )
+    finger_width: float = doc(
+        0.02, "Width (m) of the finger pads across the jaw axis, for the collision scan."
+    )
+    scan_step: float = doc(0.002, "Sample spacing (m) of the collision / contact scan along the jaw axis.")
+    occupancy_tolerance: float = doc(
+        0.002, "A scan point counts as occupied when the seen surface is this much (m) nearer than it."
+    )
+    max_contact_shift: float = doc(
+        0.01,
+        "How far (m) the scanned contacts may lie from the edge-pixel contacts before the pair is dropped.",
     )
     finger_offset: float = doc(
         0.01,
-        "Distance (m) outside each contact, along the jaw axis, where the finger collision check samples.",
+        "Space (m) each finger needs outside its contact along the jaw axis (free above the centre).",
     )
     axis_direction: Literal["random", "canonical"] = doc(
         "random",
@@ -87,10 +112,12 @@ class GraspCandidates:
         grasps: (N, 4) world grasps (x, y, z, phi), see :mod:`tognet.geometry.grasp`.
         z_depth: (N,) camera-frame depth of the grasp centre (the network's gripper-depth input).
         pixels: (N, 2) pixel (u, v) of the grasp centre.
-        widths: (N,) distance (m) between the contacts in the table plane.
+        widths: (N,) contact distance (m): the object's extent along the jaw axis above the gripper
+            centre (the edge-contact distance when ``collision_check`` is off). The opening check also
+            covers the pads' width, so a slanted grasp may need a little more than this.
         quality: (N,) antipodality score in [0, 1]: 1 when both normals lie on the jaw axis, 0 at the
             friction-cone boundary (min over the two contacts).
-        contacts: (N, 2, 3) world contact points on the object's top rim.
+        contacts: (N, 2, 3) world contact points (xy where the jaws touch, z of the top rim).
     """
 
     grasps: NDArray[np.float64]
@@ -151,25 +178,31 @@ def _edge_pixels(filled: NDArray[np.float32], thresh: float) -> tuple[NDArray, N
 
 def _smoothed_normals(
     gx: NDArray[np.float32], gy: NDArray[np.float32], rows: NDArray, cols: NDArray, radius: int
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Unit image-plane normals at (rows, cols): Gaussian-weighted mean gradient over a window.
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Unit image-plane normals at (rows, cols) and their coherence in [0, 1].
 
-    Per-pixel central differences on an aliased (stair-step) edge point along the pixel grid; the
-    window average recovers the edge's true direction (Dex-Net blurs the image for the same reason).
+    The normal is the Gaussian-weighted mean gradient over a window: per-pixel central differences on
+    an aliased (stair-step) edge point along the pixel grid, and the window average recovers the
+    edge's true direction (Dex-Net blurs the image for the same reason). The coherence is
+    |sum w g| / sum w |g|: about 1 along a straight edge, lower near a corner, where the surface normal
+    is undefined and a contact would not hold.
     """
     h, w = gx.shape
     sx = np.zeros(rows.size, dtype=np.float64)
     sy = np.zeros(rows.size, dtype=np.float64)
+    sm = np.zeros(rows.size, dtype=np.float64)
     sigma2 = max(radius, 1) ** 2 / 2.0
     for dr in range(-radius, radius + 1):
         rr = np.clip(rows + dr, 0, h - 1)
         for dc in range(-radius, radius + 1):
             wgt = np.exp(-(dr * dr + dc * dc) / (2 * sigma2))
             cc = np.clip(cols + dc, 0, w - 1)
-            sx += wgt * gx[rr, cc]
-            sy += wgt * gy[rr, cc]
+            a, b = gx[rr, cc], gy[rr, cc]
+            sx += wgt * a
+            sy += wgt * b
+            sm += wgt * np.hypot(a, b)
     norm = np.maximum(np.hypot(sx, sy), 1e-12)
-    return sx / norm, sy / norm
+    return sx / norm, sy / norm, norm / np.maximum(sm, 1e-12)
 
 
 def sample_antipodal(
@@ -202,7 +235,11 @@ def sample_antipodal(
     if rows.size > config.max_edge_pixels:
         keep = rng.choice(rows.size, size=config.max_edge_pixels, replace=False)
         rows, cols = rows[keep], cols[keep]
-    nu, nv = _smoothed_normals(gx, gy, rows, cols, config.normal_radius)
+    nu, nv, coherence = _smoothed_normals(gx, gy, rows, cols, config.normal_radius)
+    straight = coherence >= config.min_normal_coherence
+    rows, cols, nu, nv = rows[straight], cols[straight], nu[straight], nv[straight]
+    if rows.size < 2:
+        return GraspCandidates.empty()
 
     # Contact depth: nearest-to-camera value of the 3x3 neighbourhood (the object's top rim).
     nb = np.stack([filled[rows + dr, cols + dc] for dr in (-1, 0, 1) for dc in (-1, 0, 1)], axis=0)
@@ -234,7 +271,8 @@ def sample_antipodal(
     cos_i = -(ni[:, 0] * dx + ni[:, 1] * dy) * inv
     cos_j = (nj[:, 0] * dx + nj[:, 1] * dy) * inv
     cos_cone = np.float32(np.cos(np.arctan(config.friction_coef)))
-    good = np.nonzero((cos_i >= cos_cone) & (cos_j >= cos_cone) & (dist >= config.min_width))[0]
+    cos_min = cos_cone + np.float32(config.min_quality) * (1 - cos_cone)
+    good = np.nonzero((cos_i >= cos_min) & (cos_j >= cos_min) & (dist >= config.min_width))[0]
     if good.size == 0:
         return GraspCandidates.empty()
     i, j = i[good], j[good]
@@ -258,24 +296,22 @@ def sample_antipodal(
     cells = cells[rng.permutation(cells.size)]
 
     # Evaluate cells in order until enough pass the height / collision checks (vectorised in chunks).
-    chosen: list[NDArray] = []
-    z_chosen: list[NDArray] = []
+    chosen: list[tuple[NDArray, ...]] = []
     n_have = 0
-    chunk = max(2 * config.max_candidates, 64)
+    chunk = max(int(1.3 * config.max_candidates), 64)
     for start in range(0, cells.size, chunk):
         sel = cells[start : start + chunk]
-        z, ok = _grasp_heights(scene, p[i[sel]], p[j[sel]], axis[sel], config, rng)
-        chosen.append(sel[ok])
-        z_chosen.append(z[ok])
+        z, ends, width, ok = _finalize(scene, p[i[sel]], p[j[sel]], axis[sel], config, rng)
+        chosen.append((sel[ok], z[ok], ends[ok], width[ok]))
         n_have += int(ok.sum())
         if n_have >= config.max_candidates:
             break
-    sel = np.concatenate(chosen)[: config.max_candidates]
-    z = np.concatenate(z_chosen)[: config.max_candidates]
+    m = config.max_candidates
+    sel, z, ends, width = (np.concatenate([c[q] for c in chosen])[:m] for q in range(4))
     if sel.size == 0:
         return GraspCandidates.empty()
 
-    centre = 0.5 * (p[i[sel], :2] + p[j[sel], :2])
+    centre = 0.5 * (ends[:, 0] + ends[:, 1])
     phi = phi_line[sel]
     if config.axis_direction == "random":
         phi = phi + np.pi * (rng.random(sel.size) < 0.5)
@@ -283,23 +319,32 @@ def sample_antipodal(
     if config.workspace is not None:
         x0, x1, y0, y1 = config.workspace
         inside = (grasps[:, 0] >= x0) & (grasps[:, 0] <= x1) & (grasps[:, 1] >= y0) & (grasps[:, 1] <= y1)
-        grasps, sel = grasps[inside], sel[inside]
+        grasps, sel, ends, width = grasps[inside], sel[inside], ends[inside], width[inside]
         if sel.size == 0:
             return GraspCandidates.empty()
     uv, zc = cam.project(grasps[:, :3])
-    contacts = np.stack([p[i[sel]], p[j[sel]]], axis=1)
-    return GraspCandidates(grasps, zc, uv, dist[sel], quality[sel], contacts)
+    top = np.maximum(p[i[sel], 2], p[j[sel], 2])
+    contacts = np.concatenate([ends, np.broadcast_to(top[:, None, None], ends.shape[:2] + (1,))], axis=2)
+    return GraspCandidates(grasps, zc, uv, width, quality[sel], contacts)
 
 
-def _grasp_heights(
+def _finalize(
     scene: DepthScene,
     pa: NDArray,
     pb: NDArray,
     axis: NDArray,
     config: AntipodalConfig,
     rng: np.random.Generator,
-) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """Gripper-centre heights for contact pairs and whether each passes the height/collision checks."""
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """Grasp heights, refined contact points (N, 2, 2) and validity for edge-contact pairs.
+
+    The gripper centre goes ``offset`` below the highest surface between the edge contacts (never
+    below table + clearance). With ``collision_check``, the jaw line (and two lines at the pad's
+    edges) is scanned at that height: the object's extent above the gripper centre along the jaw
+    axis gives the true contacts (an edge pixel on a curved side lies inside the silhouette); the
+    pair is dropped if that extent exceeds the opening, if the contacts moved more than
+    ``max_contact_shift`` (another object joined in), or if a finger's landing zone is occupied.
+    """
     cam = scene.camera
     n = pa.shape[0]
     # Highest surface on the segment between the contacts (9 samples, ends included).
@@ -313,12 +358,64 @@ def _grasp_heights(
     floor = config.table_z + config.finger_clearance
     z = np.maximum(top - offset, floor)
     ok = top >= config.table_z + config.min_object_height
-    if config.collision_check:
-        out_a = pa[:, :2] - axis * config.finger_offset
-        out_b = pb[:, :2] + axis * config.finger_offset
-        fingers = np.concatenate([out_a, out_b], axis=0)
-        fz = np.concatenate([z, z])[:, None]
-        uvf, _ = cam.project(np.concatenate([fingers, fz], axis=1))
-        hf = _lookup(scene.height, uvf[:, 0], uvf[:, 1]).astype(np.float64)
-        ok &= (hf[:n] < z) & (hf[n:] < z)
-    return z, ok
+    contacts = np.stack([pa[:, :2], pb[:, :2]], axis=1)
+    if not config.collision_check:
+        return z, contacts, np.linalg.norm(pb[:, :2] - pa[:, :2], axis=1), ok
+    half = 0.5 * np.linalg.norm(pb[:, :2] - pa[:, :2], axis=1)
+    centre = 0.5 * (pa[:, :2] + pb[:, :2])
+    step = config.scan_step
+    reach = config.max_width / 2 + config.max_contact_shift + config.finger_offset
+    s = np.arange(-reach, reach + 0.5 * step, step)
+    normal = np.column_stack([-axis[:, 1], axis[:, 0]])
+    lines = np.array([-0.5, 0.0, 0.5]) * config.finger_width
+    # A scan point (x, y, h) is occupied when the surface the camera sees along its ray is nearer than
+    # the point itself (the point is inside something, or hidden behind it: unknown space counts as
+    # occupied). Checked at the gripper-centre height (also catches anything higher, whose image covers
+    # the point's ray, except thin overhangs seen edge-on). Each scan line is straight, so its camera
+    # coordinates are affine in s: P_cam(s) = O_cam + s * D_cam.
+    cam_from_world = cam.camera_from_world
+    rot = cam_from_world[:3, :3]
+    k = cam.intrinsics
+    filled = scene.filled
+    hgt, wid = filled.shape
+    d_cam = (np.column_stack([axis, np.zeros(n)]) @ rot.T).astype(np.float32)  # (N, 3)
+    s32 = s.astype(np.float32)
+    above3 = np.zeros((n, lines.size, s.size), dtype=bool)
+    tol = np.float32(config.occupancy_tolerance)
+    for hz in (z,):
+        origins = (
+            np.concatenate([centre, hz[:, None]], axis=1)[:, None, :]
+            + lines[None, :, None] * np.column_stack([normal, np.zeros(n)])[:, None, :]
+        )  # (N, L, 3)
+        o_cam = (origins @ rot.T + cam_from_world[:3, 3]).astype(np.float32)
+        pc = o_cam[:, :, None, :] + s32[None, None, :, None] * d_cam[:, None, None, :]  # (N, L, K, 3)
+        inv = 1.0 / np.maximum(pc[..., 2], np.float32(1e-6))
+        ui = np.clip(
+            (pc[..., 0] * inv * np.float32(k.fx) + np.float32(k.cx + 0.5)).astype(np.intp), 0, wid - 1
+        )
+        vi = np.clip(
+            (pc[..., 1] * inv * np.float32(k.fy) + np.float32(k.cy + 0.5)).astype(np.intp), 0, hgt - 1
+        )
+        above3 |= filled[vi, ui] < pc[..., 2] - tol
+    inner = np.abs(s)[None, :] <= (half + config.max_contact_shift)[:, None]
+    ns = s.size
+
+    def extent(mask: NDArray[np.bool_]) -> tuple[NDArray, NDArray, NDArray]:
+        run = mask & inner
+        lo = s[np.argmax(run, axis=1)] - 0.5 * step
+        hi = s[ns - 1 - np.argmax(run[:, ::-1], axis=1)] + 0.5 * step
+        return lo, hi, run.any(axis=1)
+
+    lo, hi, has = extent(above3[:, 1])  # contacts: on the jaw axis itself
+    above = above3.any(axis=1)  # the whole pad width: what the opening must clear
+    lo_u, hi_u, _ = extent(above)
+    zone_lo = (s[None, :] < lo_u[:, None]) & (s[None, :] >= (lo_u - config.finger_offset)[:, None])
+    zone_hi = (s[None, :] > hi_u[:, None]) & (s[None, :] <= (hi_u + config.finger_offset)[:, None])
+    blocked = (above & (zone_lo | zone_hi)).any(axis=1)
+    mid = 0.5 * (lo + hi)
+    opening = 2 * np.maximum(hi_u - mid, mid - lo_u)  # the jaws close symmetrically about the centre
+    width = hi - lo
+    ok &= has & ~blocked & (opening <= config.max_width) & (width >= config.min_width)
+    ok &= (lo <= -half + config.max_contact_shift) & (hi >= half - config.max_contact_shift)
+    refined = np.stack([centre + lo[:, None] * axis, centre + hi[:, None] * axis], axis=1)
+    return z, refined, width, ok
