@@ -46,7 +46,9 @@ class ShapeRanges(Config):
     x_cross_width: tuple[float, float] = doc((0.018, 0.05), "X rule: crossing part width range (m).")
     x_cross_height: tuple[float, float] = doc((0.015, 0.035), "X rule: crossing part height range (m).")
     max_length: float = doc(0.40, "Longest side of the whole object at most this (m); larger layouts shrink.")
-    density: tuple[float, float] = doc((300.0, 1500.0), "Density range (kg/m^3), uniform.")
+    density: tuple[float, float] = doc(
+        (300.0, 2500.0), "Density range (kg/m^3), uniform: wood and plastics to light metal alloys."
+    )
     mass: tuple[float, float] = doc(
         (0.08, 1.2), "Mass range (kg): a density giving a mass outside is clamped to the range's ends."
     )
