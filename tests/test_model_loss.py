@@ -70,4 +70,5 @@ def test_empty_masks_and_q_task():
         out = tognet_loss(**batch, config=LossConfig(reduction=reduction))
         assert float(out["task"]) == 0.0 and float(out["action"]) == 0.0
         assert math.isfinite(float(out["loss"]))
-    assert torch.allclose(q_task(torch.tensor([0.5, 0.2]), torch.tensor([0.4, 1.0])), torch.tensor([0.2, 0.2]))
+    q_t = q_task(torch.tensor([0.5, 0.2]), torch.tensor([0.4, 1.0]))
+    assert torch.allclose(q_t, torch.tensor([0.2, 0.2]))

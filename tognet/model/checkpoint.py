@@ -22,6 +22,7 @@ TrainConfig, raises :class:`CheckpointError` with the reason; so does a truncate
 from __future__ import annotations
 
 import datetime as _dt
+import functools
 import os
 import subprocess
 from pathlib import Path
@@ -43,6 +44,7 @@ class CheckpointError(TognetError):
     """A checkpoint is missing, corrupt, of another format version or does not match this code."""
 
 
+@functools.lru_cache(maxsize=1)
 def code_version() -> dict[str, Any]:
     """tognet version, git commit of the source tree (None outside a git checkout) and torch version."""
     root = Path(tognet.__file__).resolve().parent.parent
@@ -87,7 +89,7 @@ def save_checkpoint(
         "normalization": model.normalization(),
         "data": data,
         "split": split or {},
-        "code": code_version(),
+        "code": dict(code_version()),
         "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         "state_dict": {k: v.detach().cpu() for k, v in model.state_dict().items()},
         "epoch": int(epoch),

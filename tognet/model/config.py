@@ -62,7 +62,11 @@ class TrainConfig(Config):
     patience: int = doc(5, "Early stopping: epochs without a better validation loss before stopping.")
     min_delta: float = doc(1e-4, "Early stopping: smallest decrease of validation loss that counts.")
     seed: int = doc(0, "Seed of weight initialisation, batch order and the validation split.")
-    num_threads: int = doc(2, "torch CPU threads (fixed, for determinism and to share the machine).")
+    num_threads: int = doc(
+        1,
+        "torch CPU threads (fixed, for determinism). 1 by default: on a 2-core machine shared with data "
+        "collection, 2 threads slowed training steps several-fold; use 2 on an idle machine.",
+    )
     deterministic: bool = doc(True, "torch.use_deterministic_algorithms(True) (CPU runs are reproducible).")
     device: str = doc("auto", "'auto' (CUDA when available, else CPU), 'cpu' or 'cuda'.")
     eval_batch_size: int = doc(1024, "Episodes per forward pass during validation.")

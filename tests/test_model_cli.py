@@ -1,0 +1,60 @@
+import json
+
+from typer.testing import CliRunner
+
+from tognet.cli import app
+
+runner = CliRunner()
+
+
+def test_help_texts():
+    for args in (["train", "--help"], ["model", "info", "--help"], ["data", "synthetic", "--help"],
+                 ["data", "info", "--help"]):
+        result = runner.invoke(app, args)
+        assert result.exit_code == 0, result.output
+        assert "Usage" in result.output
+    assert "--resume" in runner.invoke(app, ["train", "--help"]).output
+
+
+def test_end_to_end_train_and_info(tmp_path):
+    data = tmp_path / "data"
+    r = runner.invoke(app, ["data", "synthetic", str(data), "--task", "hammering", "--episodes", "160",
+                            "--objects", "8", "--shard-size", "64"])
+    assert r.exit_code == 0, r.output
+    r = runner.invoke(app, ["data", "info", str(data), "--check"])
+    assert r.exit_code == 0, r.output
+    assert '"episodes": 160' in r.output and "all shards readable" in r.output
+    cfg = tmp_path / "train.json"
+    cfg.write_text(json.dumps({"arch": {"stem_channels": 8, "block_channels": [8], "block_strides": [2],
+                                        "bottleneck_channels": 4, "head_hidden": 16},
+                               "batch_size": 32, "num_threads": 1, "val_fraction": 0.25}))
+    out = tmp_path / "out"
+    r = runner.invoke(app, ["train", "--data", str(data), "--task", "hammering", "--out", str(out),
+                            "--config", str(cfg), "--epochs", "2", "--no-progress"])
+    assert r.exit_code == 0, r.output
+    assert "done: 2 epochs" in r.output
+    assert (out / "best.pt").is_file() and (out / "curves.png").is_file()
+    r = runner.invoke(app, ["model", "info", str(out / "best.pt")])
+    assert r.exit_code == 0, r.output
+    assert "task         hammering" in r.output and "val grasp" in r.output
+    r = runner.invoke(app, ["model", "info", "--json", str(out / "last.pt")])
+    assert json.loads(r.output)["resumable"] is True
+    r = runner.invoke(app, ["train", "--data", str(data), "--task", "hammering", "--out", str(out),
+                            "--config", str(cfg), "--epochs", "3", "--resume", "--no-progress"])
+    assert r.exit_code == 0, r.output
+    assert "resuming" in r.output and "done: 3 epochs" in r.output
+
+
+def test_cli_errors_are_clear(tmp_path):
+    bad = tmp_path / "bad.pt"
+    bad.write_bytes(b"not a checkpoint")
+    r = runner.invoke(app, ["model", "info", str(bad)])
+    assert r.exit_code == 2 and "bad.pt: not a readable checkpoint" in r.output
+    r = runner.invoke(app, ["train", "--data", str(tmp_path / "nope"), "--task", "x", "--out",
+                            str(tmp_path / "o")])
+    assert r.exit_code == 2 and "dataset folder not found" in r.output
+    cfg = tmp_path / "c.json"
+    cfg.write_text(json.dumps({"epohcs": 3}))
+    r = runner.invoke(app, ["train", "--data", str(tmp_path), "--task", "x", "--out", str(tmp_path / "o"),
+                            "--config", str(cfg)])
+    assert r.exit_code == 2 and "did you mean 'epochs'" in r.output
