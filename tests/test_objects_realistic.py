@@ -72,7 +72,9 @@ def test_visual_is_a_plausible_solid(index: int):
     assert 0.2 <= m.friction <= 1.0
     # lies on the table, centred
     lo, hi = v.bounds
-    assert abs(lo[2]) < 1e-6
+    lowest_piece = min(p.vertices[:, 2].min() for p in m.pieces)
+    assert min(lo[2], lowest_piece) == pytest.approx(0.0, abs=1e-9)
+    assert lo[2] < 0.002 and lowest_piece < 0.002  # neither floats
     assert np.allclose((lo[:2] + hi[:2]) / 2, 0.0, atol=0.01)
     if m.tool_like:
         assert ext[2] < max(ext[0], ext[1])  # tools lie flat
@@ -88,7 +90,11 @@ def test_pieces_are_convex_small_and_cover_the_visual(index: int):
         assert piece.volume == pytest.approx(piece.convex_hull.volume, rel=1e-6)
     union = trimesh.boolean.union(m.pieces, engine="manifold")
     assert union.volume == pytest.approx(m.visual.volume, rel=0.15)
-    # every sampled visual surface point lies inside a piece or within 4 mm of one
+    # the pieces and the visual overlap: little of either lies outside the other
+    outside = trimesh.boolean.difference([union, m.visual], engine="manifold").volume
+    uncovered = trimesh.boolean.difference([m.visual, union], engine="manifold").volume
+    assert outside < 0.2 * m.visual.volume and uncovered < 0.2 * m.visual.volume, (outside, uncovered)
+    # every sampled visual surface point lies inside a piece or within 3 mm of one
     pts = surface_points(m.visual)
     outside = np.ones(len(pts), bool)
     for piece in m.pieces:
@@ -103,14 +109,14 @@ def test_pieces_are_convex_small_and_cover_the_visual(index: int):
         query = np.repeat(far, len(triangles), axis=0)
         closest = trimesh.triangles.closest_point(tri, query)
         dist = np.linalg.norm(closest - query, axis=1).reshape(len(far), len(triangles)).min(axis=1)
-        assert dist.max() < 0.004, f"{m.name}: visual point {dist.max() * 1000:.1f} mm from the pieces"
+        assert dist.max() < 0.003, f"{m.name}: visual point {dist.max() * 1000:.1f} mm from the pieces"
 
 
 @pytest.mark.parametrize("index", INDICES, ids=REALISTIC_NAMES)
 def test_rest_pose_is_statically_stable(index: int):
     m = model(index)
     verts = np.vstack([p.vertices for p in m.pieces])
-    contact = verts[verts[:, 2] < 0.002]
+    contact = verts[verts[:, 2] < verts[:, 2].min() + 0.002]
     support = MultiPoint([tuple(p) for p in contact[:, :2]]).convex_hull
     com = m.visual.center_mass
     assert support.area > 0 and support.contains(Point(com[0], com[1])), m.name
@@ -140,7 +146,7 @@ REAL_WORLD = {
     "frying_pan": ((0.35, 0.45), (0.4, 1.5)),
     "wrench": ((0.15, 0.30), (0.08, 0.4)),
     "screwdriver": ((0.15, 0.30), (0.05, 0.25)),
-    "ladle": ((0.25, 0.38), (0.1, 0.4)),
+    "ladle": ((0.25, 0.38), (0.04, 0.4)),
     "brush": ((0.15, 0.30), (0.03, 0.2)),
     "mug": ((0.08, 0.14), (0.25, 0.45)),
     "bottle": ((0.18, 0.30), (0.4, 0.7)),

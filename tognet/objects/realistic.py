@@ -164,16 +164,17 @@ def _screwdriver() -> Builder:
 
 
 def _ladle() -> Builder:
+    """Nylon soup ladle (3 mm walls)."""
     b = Builder()
-    strip0 = np.array([[0.043, y, z] for y in (-0.009, 0.009) for z in (0.0365, 0.0395)])
+    strip0 = np.array([[0.0435, y, z] for y in (-0.009, 0.009) for z in (0.036, 0.040)])
     angle = math.radians(32)
     end = np.array([0.043 + 0.25 * math.cos(angle), 0.0, 0.038 + 0.25 * math.sin(angle)])
-    strip1 = np.array([[end[0], y, end[2] + dz] for y in (-0.011, 0.011) for dz in (-0.0015, 0.0015)])
-    b.add(hull(strip0, strip1), "steel")
+    strip1 = np.array([[end[0], y, end[2] + dz] for y in (-0.011, 0.011) for dz in (-0.002, 0.002)])
+    b.add(hull(strip0, strip1), "nylon")
     bowl = vessel(
-        [(0.026, 0.0, 0.0245, 0.002), (0.041, 0.018, 0.039, 0.0185), (0.045, 0.040, 0.043, 0.040)], sectors=8
+        [(0.026, 0.0, 0.023, 0.003), (0.041, 0.018, 0.0378, 0.0195), (0.045, 0.040, 0.0418, 0.040)], sectors=8
     )
-    b.add_vessel(bowl, "steel")
+    b.add_vessel(bowl, "nylon")
     return b
 
 
@@ -195,7 +196,7 @@ def _saucepan() -> Builder:
         hull(sec(0.081, 0.011, 0.0075, z=0.070, p=3, shear=slope), sec(0.26, 0.0135, 0.007, z=0.088, p=3)),
         "plastic",
     )
-    b.add_vessel(vessel([(0.08, 0.0, 0.077, 0.004), (0.085, 0.09, 0.082, 0.09)], sectors=12), "aluminium")
+    b.add_vessel(vessel([(0.08, 0.0, 0.077, 0.004), (0.085, 0.09, 0.082, 0.09)], sectors=14), "aluminium")
     return b
 
 
@@ -570,7 +571,7 @@ def _bowl() -> Builder:
     b = Builder()
     b.add_vessel(
         vessel(
-            [(0.035, 0.0, 0.031, 0.005), (0.061, 0.028, 0.057, 0.029), (0.076, 0.062, 0.072, 0.062)],
+            [(0.035, 0.0, 0.030, 0.006), (0.061, 0.028, 0.0555, 0.0295), (0.076, 0.062, 0.0705, 0.062)],
             sectors=10,
         ),
         "ceramic",
@@ -580,7 +581,7 @@ def _bowl() -> Builder:
 
 def _cup() -> Builder:
     b = Builder()
-    b.add_vessel(vessel([(0.027, 0.0, 0.0255, 0.003), (0.040, 0.095, 0.0385, 0.095)], sectors=12), "plastic")
+    b.add_vessel(vessel([(0.027, 0.0, 0.0245, 0.003), (0.040, 0.095, 0.0375, 0.095)], sectors=12), "plastic")
     return b
 
 

@@ -194,6 +194,19 @@ def revolved_solid(
     return pieces
 
 
+def _sector_scale_minimax(sectors: int) -> float:
+    """Radius scale for sector pieces: the flat face of a piece then lies between ``r (1 - e)`` (middle)
+    and ``r (1 + e)`` (seams) of the smooth surface at radius ``r``, with ``e`` as small as possible."""
+    return 2.0 / (1.0 + math.cos(math.pi / sectors))
+
+
+def _sector_scale_circumscribed(sectors: int) -> float:
+    return 1.0 / math.cos(math.pi / sectors)
+
+
+_SECTOR_SCALE = _sector_scale_minimax
+
+
 @dataclass
 class Vessel:
     """A thin-walled open vessel about the z axis, smooth visual plus convex sector pieces."""
@@ -227,7 +240,7 @@ def vessel(
     chunks.append(np.asarray(first))
     for k in range(1, len(st) - 1):
         chunks.append(np.asarray([inner[k], outer[k], outer[k + 1], inner[k + 1]]))
-    scale = 1.0 / math.cos(math.pi / sectors)
+    scale = _SECTOR_SCALE(sectors)
     pieces = []
     r_b = inner[0, 0] * scale
     pieces.append(
@@ -257,7 +270,7 @@ def annulus(r_in: float, r_out: float, height: float, sectors: int = 12, visual_
     visual = trimesh.creation.revolve(loop, sections=visual_sections)
     if visual.volume < 0:
         visual.invert()
-    scale = 1.0 / math.cos(math.pi / sectors)
+    scale = _SECTOR_SCALE(sectors)
     pieces = []
     for k in range(sectors):
         pts = []
@@ -367,7 +380,9 @@ def rest_pose(
     yaw = math.atan2(longest[1], longest[0])
     yaw = (yaw + math.pi / 2) % math.pi - math.pi / 2  # the nearest of the two directions along that side
     transform = rotation((0, 0, 1), -yaw) @ transform
-    moved = trimesh.transform_points(points, transform)
+    # the lowest point of pieces or visual touches z = 0 (a smooth visual may bulge a little past the
+    # flat faces of its sector pieces; it should not dip below the table)
+    moved = trimesh.transform_points(np.vstack([points, visual.vertices]), transform)
     lo, hi = moved.min(axis=0), moved.max(axis=0)
     shift = translation(-0.5 * (lo[0] + hi[0]), -0.5 * (lo[1] + hi[1]), -lo[2])
     return shift @ transform
