@@ -563,7 +563,7 @@ def _can() -> Builder:
         (0.116, 0.0285),
         (0.1185, 0.0285),
     ]
-    b.add(revolved_solid(profile, [(0, 4), (4, 6)], n=12), "filled_drink")
+    b.add(revolved_solid(profile, [(0, 2), (2, 4), (4, 6)], n=20), "filled_drink")
     return b
 
 
