@@ -147,7 +147,7 @@ def sweep_action(sim: Simulator, grasp_name: str, clip: bool = True) -> np.ndarr
     front = ys.max()  # the tool's leading edge, gripper frame (y = direction of the stroke)
     centre_x = 0.5 * (xs.min() + xs.max())
     can_y_min = min(y for _, y, _ in cans)
-    grip = np.array([ref[0] - centre_x, can_y_min - c.can_radius - 0.03 - front, 0.03])
+    grip = np.array([ref[0] - centre_x, can_y_min - c.can_radius - 0.03 - front, 0.05])
     a = np.array([*(grip - ref - np.asarray(c.nominal_offset)), 0.0])
     if clip:
         a = np.clip(a, task.action_low, task.action_high)

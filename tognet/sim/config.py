@@ -20,6 +20,9 @@ class PhysicsConfig(Config):
     """MuJoCo solver options."""
 
     timestep: float = doc(0.002, "Simulation timestep (s).")
+    integrator: str = doc(
+        "implicit", "MuJoCo integrator: implicit (with Coriolis terms: spinning cans stay stable), implicitfast, RK4."
+    )
     impratio: float = doc(
         10.0, "Frictional-to-normal impedance ratio (elliptic cones; firmer grip friction)."
     )

@@ -168,7 +168,7 @@ def world_xml(config: SimConfig, obj: ObjectRecord, task: str) -> str:
     lines = [
         '<mujoco model="tognet_world">',
         '  <compiler angle="radian" autolimits="true"/>',
-        f'  <option timestep="{p.timestep:g}" integrator="implicitfast" cone="elliptic" impratio="{p.impratio:g}" '
+        f'  <option timestep="{p.timestep:g}" integrator="{p.integrator}" cone="elliptic" impratio="{p.impratio:g}" '
         f'iterations="{p.iterations}" noslip_iterations="{p.noslip_iterations}" gravity="0 0 {-p.gravity:g}">',
         '    <flag autoreset="disable"/>',
         "  </option>",
