@@ -73,3 +73,21 @@ def test_import_exit_codes(tmp_path):
     assert "imported 1 of 2" in result.output
     result = runner.invoke(app, ["objects", "import", str(tmp_path / "nope"), "--out", str(tmp_path / "out")])
     assert result.exit_code == 2
+
+
+def test_generate_with_a_config_file(tmp_path):
+    from tognet.objects import GeneratorConfig
+    from tognet.objects.compose import ShapeRanges
+    from tognet.objects.primitive import PrimitiveConfig
+
+    ranges = ShapeRanges(rule_weights=(1.0, 0.0, 0.0))
+    path = GeneratorConfig(primitive=PrimitiveConfig(ranges=ranges)).save(tmp_path / "gen.json")
+    out = tmp_path / "set"
+    args = ["objects", "generate", "--kind", "primitive", "--count", "3", "--out", str(out)]
+    result = runner.invoke(app, [*args, "--config", str(path)])
+    assert result.exit_code == 0, result.output
+    assert "rules {'T': 3}" in result.output
+    (tmp_path / "bad.json").write_text('{"primitve": {}}')
+    result = runner.invoke(app, [*args, "--config", str(tmp_path / "bad.json")])
+    assert result.exit_code == 2
+    assert "unknown key 'primitve'" in result.output

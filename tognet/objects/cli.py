@@ -45,11 +45,19 @@ def generate(
     out: Path = typer.Option(..., "--out", help="Set folder; its catalog.json keeps objects already there."),
     start: int = typer.Option(0, "--start", min=0, help="First object index (to extend a set)."),
     workers: int = typer.Option(1, "--workers", min=1, help="Processes generating in parallel."),
+    config: Path | None = typer.Option(
+        None,
+        "--config",
+        help="A GeneratorConfig JSON (e.g. another set's generator_config.json) instead of the defaults.",
+    ),
 ) -> None:
     """Generate objects (deterministic: the same kind/split/index gives the same files anywhere)."""
-    from tognet.objects.generate import generate_set
+    from tognet.objects.generate import GeneratorConfig, generate_set
 
-    records = generate_set(kind.value, split.value, count, out, start=start, progress=True, workers=workers)
+    cfg = GeneratorConfig.load(config) if config is not None else None
+    records = generate_set(
+        kind.value, split.value, count, out, start=start, progress=True, workers=workers, config=cfg
+    )
     rules: dict[str, int] = {}
     for r in records:
         rules[r.shape_rule] = rules.get(r.shape_rule, 0) + 1
