@@ -7,6 +7,7 @@ pipeline (collection, training, evaluation).
 from __future__ import annotations
 
 import importlib.util
+import shutil
 from pathlib import Path
 
 import typer
@@ -29,6 +30,8 @@ def demo(
         if kind == "realistic" and importlib.util.find_spec("tognet.objects.realistic") is None:
             typer.echo("realistic: skipped (tognet/objects/realistic.py is not there yet)")
             continue
+        if (folder / "catalog.json").is_file():
+            shutil.rmtree(folder)  # the demo's own set from an earlier run: regenerate it from scratch
         generate_set(kind=kind, split="test", count=count, out=folder, progress=True)
         sheet = write_contact_sheet(folder, out / f"sheet_{kind}.png")
         typer.echo(f"{kind}: {count} objects in {folder}, contact sheet {sheet}")
