@@ -112,3 +112,29 @@ def test_dataset_items():
     item = ds[3]
     assert item["crop"].shape == (1, 64, 64) and item["action"].shape == (4,)
     assert float(item["grasp_success"]) == float(ds.episodes.grasp_success[3])
+
+
+def test_one_writer_per_folder_and_parent_folder_reading(tmp_path):
+    w = ShardWriter(tmp_path / "round1" / "worker-00", "sweeping", {"worker": 0}, shard_size=10)
+    with pytest.raises(DatasetError, match="another ShardWriter"):
+        ShardWriter(tmp_path / "round1" / "worker-00", "sweeping", {})
+    ep = synthetic_episodes(25, seed=3)
+    w.add_batch(**_columns(ep))
+    w.close()
+    ShardWriter(tmp_path / "round1" / "worker-00", "sweeping", {}).close()  # lock released on close
+    write_synthetic_dataset(tmp_path / "round1" / "worker-01", task="sweeping", n=15)
+    both = read_dataset(tmp_path / "round1")
+    assert len(both) == 40
+
+
+def test_configs_saved_beside_without_overwrite(tmp_path):
+    from tognet.model.config import LossConfig
+
+    ShardWriter(tmp_path, "t", {"round": 1}, configs={"loss": LossConfig()}).close()
+    ShardWriter(tmp_path, "t", {"round": 1}, configs={"loss": LossConfig()}).close()
+    ShardWriter(tmp_path, "t", {"round": 2}, configs={"loss": LossConfig(weight_task=2.0)}).close()
+    names = sorted(p.name for p in (tmp_path / "configs").iterdir())
+    assert names == ["loss-2.json", "loss.json"]
+    assert LossConfig.load(tmp_path / "configs" / "loss.json") == LossConfig()
+    manifest = json.loads((tmp_path / "manifest.json").read_text())
+    assert [c["file"] for c in manifest["configs"]] == ["configs/loss.json", "configs/loss-2.json"]

@@ -11,11 +11,15 @@ action that were executed, and the labels the simulator produced. A dataset fold
 
 Shards are written to a temporary file and renamed, so a crash never leaves a half-written shard under
 its final name. A writer opened on an existing folder appends new shard indices and never overwrites.
+One writer per folder at a time (an advisory lock on ``.writer.lock``, released when the process ends);
+parallel workers write to sibling folders, e.g. ``round1/worker-00``, and readers accept the parent
+folder (every sub-folder holding a ``manifest.json`` is read).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import fcntl
 import hashlib
 import json
 import os
@@ -201,6 +205,28 @@ class ShardWriter:
         json.dumps(self.meta)  # metadata must be JSON-serialisable; fail now, not at the first flush
         self.shard_size = int(shard_size)
         self.out_dir.mkdir(parents=True, exist_ok=True)
+        self._lock = open(self.out_dir / ".writer.lock", "a")  # noqa: SIM115 (held until close)
+        try:
+            fcntl.flock(self._lock.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            self._lock.close()
+            raise DatasetError(f"{self.out_dir}: another ShardWriter is writing to this folder") from None
+        try:
+            self._open()
+            for name, cfg in (configs or {}).items():
+                self._save_config(name, cfg)
+            self._write_manifest()
+        except BaseException:
+            self._release()
+            raise
+
+    def _release(self) -> None:
+        if not self._lock.closed:
+            fcntl.flock(self._lock.fileno(), fcntl.LOCK_UN)
+            self._lock.close()
+
+    def _open(self) -> None:
+        task = self.task
         manifest = _read_manifest(self.out_dir)
         if manifest is None:
             manifest = {"format_version": FORMAT_VERSION, "task": task, "shards": [], "configs": []}
@@ -216,10 +242,6 @@ class ShardWriter:
         self._buffered = 0
         self._closed = False
         self.written: list[Path] = []
-        if configs:
-            for name, cfg in configs.items():
-                self._save_config(name, cfg)
-        self._write_manifest()
 
     # -- adding episodes --------------------------------------------------------------------------------
     def add(self, **episode: Any) -> None:
@@ -323,9 +345,12 @@ class ShardWriter:
     def close(self) -> list[Path]:
         """Write the remaining buffered episodes as a last (smaller) shard; returns all shards written."""
         if not self._closed:
-            if self._buffered:
-                self._flush(self._buffered)
-            self._closed = True
+            try:
+                if self._buffered:
+                    self._flush(self._buffered)
+            finally:
+                self._closed = True
+                self._release()
         return self.written
 
     def __enter__(self) -> ShardWriter:
@@ -380,10 +405,28 @@ def dataset_task(folder: str | Path) -> str | None:
     return None if manifest is None else str(manifest.get("task"))
 
 
-def describe_dataset(dirs: Iterable[str | Path]) -> dict[str, Any]:
+def expand_dataset_dirs(dirs: str | Path | Iterable[str | Path]) -> list[Path]:
+    """Dataset folders: each given folder itself if it holds a manifest or shards, else every sub-folder
+    (recursively, sorted) that holds a ``manifest.json``; a folder with neither is kept (and fails later
+    with a clear error)."""
+    if isinstance(dirs, str | Path):
+        dirs = [dirs]
+    out: list[Path] = []
+    for d in map(Path, dirs):
+        if d.is_dir() and not (d / MANIFEST).is_file() and not any(SHARD_PATTERN.match(p.name)
+                                                                    for p in d.iterdir()):
+            subs = sorted(m.parent for m in d.rglob(MANIFEST))
+            if subs:
+                out.extend(subs)
+                continue
+        out.append(d)
+    return out
+
+
+def describe_dataset(dirs: str | Path | Iterable[str | Path]) -> dict[str, Any]:
     """A JSON-ready description of dataset folders (task, shard names, counts, sha256) for checkpoints."""
     out = []
-    for folder in dirs:
+    for folder in expand_dataset_dirs(dirs):
         folder = Path(folder)
         manifest = _read_manifest(folder) or {}
         shards = [
@@ -410,9 +453,7 @@ def read_dataset(
     ``task``: if given, every folder's manifest must name it. ``skip_bad``: a corrupt, truncated or missing
     shard is skipped with a warning instead of raising :class:`DatasetError`.
     """
-    if isinstance(dirs, str | Path):
-        dirs = [dirs]
-    dirs = [Path(d) for d in dirs]
+    dirs = expand_dataset_dirs(dirs)
     if not dirs:
         raise DatasetError("no dataset folders given")
     parts: list[EpisodeArrays] = []
