@@ -87,10 +87,12 @@ def main() -> None:
     print(f"default architecture: {sum(p.numel() for p in model.parameters())} parameters")
     print("inference, 200 candidates, TOGNetPredictor.predict (BN folded, inference mode):")
     for threads in (1, 2):
-        print(f"  glibc default allocator, {threads} thread(s): {_stats(bench_inference(threads, args.repeats))}")
+        ts = bench_inference(threads, args.repeats)
+        print(f"  glibc default allocator, {threads} thread(s): {_stats(ts)}")
     tuned = tune_allocator()
     for threads in (1, 2):
-        print(f"  tuned allocator ({tuned}),  {threads} thread(s): {_stats(bench_inference(threads, args.repeats))}")
+        ts = bench_inference(threads, args.repeats)
+        print(f"  tuned allocator ({tuned}),  {threads} thread(s): {_stats(ts)}")
     print(f"training, batch {args.batch}, default architecture, Adam step:")
     for threads in (1, 2):
         print(f"  {threads} thread(s): {bench_training(threads, args.steps, args.batch):7.0f} samples/s")
