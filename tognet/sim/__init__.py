@@ -1,5 +1,11 @@
 """The simulated world (the only package that imports MuJoCo): table, camera, gripper, task props."""
 
+import os as _os
+
+# MuJoCo's offscreen renderer needs a GL backend chosen before mujoco is imported: EGL when headless.
+if "MUJOCO_GL" not in _os.environ and not _os.environ.get("DISPLAY"):
+    _os.environ["MUJOCO_GL"] = "egl"
+
 from tognet.sim.config import (
     CameraConfig,
     EpisodeConfig,

@@ -53,7 +53,8 @@ class CheckResult:
         """One printable line."""
         fails = ", ".join(f"{k}={v}" for k, v in sorted(self.failures.items()))
         return (
-            f"{self.name:<44} task {self.task_successes:>3}/{self.trials - self.invalid:<3} = {self.rate:6.1%}"
+            f"{self.name:<44} task {self.task_successes:>3}/{self.trials - self.invalid:<3} "
+            f"= {self.rate:6.1%}"
             f"  grasp {self.grasp_successes}/{self.trials}  invalid {self.invalid}  [{fails}]"
         )
 

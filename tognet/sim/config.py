@@ -21,7 +21,8 @@ class PhysicsConfig(Config):
 
     timestep: float = doc(0.002, "Simulation timestep (s).")
     integrator: str = doc(
-        "implicit", "MuJoCo integrator: implicit (with Coriolis terms: spinning cans stay stable), implicitfast, RK4."
+        "implicit",
+        "MuJoCo integrator: implicit (with Coriolis terms: spinning cans stay stable), implicitfast, RK4.",
     )
     impratio: float = doc(
         10.0, "Frictional-to-normal impedance ratio (elliptic cones; firmer grip friction)."

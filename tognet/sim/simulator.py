@@ -465,6 +465,16 @@ class Simulator:
         b = self._obj_body
         return self.data.xpos[b].copy(), self.data.xmat[b].reshape(3, 3).copy()
 
+    def default_grasp(self) -> Grasp:
+        """A sensible grasp on the settled object: at its centre of mass, jaw across its narrow side."""
+        pos, rot = self.object_pose()
+        pts = (self._vertices @ rot.T + pos)[:, :2]
+        centred = pts - pts.mean(axis=0)
+        _, vecs = np.linalg.eigh(centred.T @ centred)
+        minor = vecs[:, 0]  # eigenvalues ascending: the narrow direction
+        com = self.data.xipos[self._obj_body]
+        return Grasp.from_array([com[0], com[1], com[2], np.arctan2(minor[1], minor[0])])
+
     def execute(self, grasp: Grasp, action: Any = None, seed: int = 0) -> TrialResult:
         """Restore the settled scene and run one trial: grasp, lift, transport, primitive; label it."""
         if self._saved is None:

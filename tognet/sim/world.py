@@ -77,8 +77,10 @@ def _gripper_xml(config: SimConfig) -> tuple[list[str], list[str]]:
         '      <joint name="grip_z" type="slide" axis="0 0 1" range="-0.2 2" damping="5"/>',
         f"      <inertial pos='0 0 0' {carriage}/>",
         '      <body name="hand" gravcomp="1">',
-        f'        <joint name="grip_yaw" type="hinge" axis="0 0 1" armature="{g.yaw_armature:g}" damping="0.01"/>',
-        f'        <inertial pos="0 0 {top + 0.015:.4f}" mass="{g.hand_mass:g}" diaginertia="4e-4 2e-4 4e-4"/>',
+        f'        <joint name="grip_yaw" type="hinge" axis="0 0 1" armature="{g.yaw_armature:g}" '
+        'damping="0.01"/>',
+        f'        <inertial pos="0 0 {top + 0.015:.4f}" mass="{g.hand_mass:g}" '
+        'diaginertia="4e-4 2e-4 4e-4"/>',
         f'        <geom name="palm" type="box" size="{half_open + t + 0.01:.4f} 0.025 0.015" '
         f'pos="0 0 {top + 0.015:.4f}" group="{GROUP_GRIPPER}" rgba="0.3 0.3 0.35 1"/>',
         f'        <geom name="wrist" type="cylinder" size="0.03 0.05" pos="0 0 {top + 0.08:.4f}" '
@@ -87,10 +89,12 @@ def _gripper_xml(config: SimConfig) -> tuple[list[str], list[str]]:
     for side, sign in (("l", -1.0), ("r", 1.0)):
         body += [
             f'        <body name="finger_{side}" gravcomp="1">',
-            f'          <joint name="finger_{side}" type="slide" axis="{sign:g} 0 0" range="0 {half_open:.4f}" '
+            f'          <joint name="finger_{side}" type="slide" axis="{sign:g} 0 0" '
+            f'range="0 {half_open:.4f}" '
             'damping="2"/>',
             '          <inertial pos="0 0 0.02" mass="0.03" diaginertia="1e-5 1e-5 1e-5"/>',
-            f'          <geom name="finger_{side}" type="box" size="{0.5 * t:.4f} {0.5 * pw:.4f} {link_h:.4f}" '
+            f'          <geom name="finger_{side}" type="box" '
+            f'size="{0.5 * t:.4f} {0.5 * pw:.4f} {link_h:.4f}" '
             f'pos="{sign * 0.5 * t:.4f} 0 {link_z:.4f}" {pad}/>',
             "        </body>",
         ]
@@ -143,8 +147,10 @@ def _props_xml(config: SimConfig, task: str) -> list[str]:
             'rgba="0.3 0.45 0.7 1"/>',
             '  <body name="peg">',
             f'    <joint name="peg" type="slide" axis="1 0 0" range="-0.001 {0.5 * length + 0.001:g}" '
-            f'frictionloss="{c.peg_friction:g}" solreffriction="{2 * dt:g} 1" solimpfriction="0.99 0.999 0.001"/>',
-            f'    <geom name="peg" type="box" size="{0.5 * length:g} {0.5 * s:g} {0.5 * s:g}" mass="{c.peg_mass:g}" '
+            f'frictionloss="{c.peg_friction:g}" solreffriction="{2 * dt:g} 1" '
+            'solimpfriction="0.99 0.999 0.001"/>',
+            f'    <geom name="peg" type="box" size="{0.5 * length:g} {0.5 * s:g} {0.5 * s:g}" '
+            f'mass="{c.peg_mass:g}" '
             f'friction="0.5 0.005 0.0001" group="{GROUP_PROPS}" rgba="0.9 0.8 0.2 1"/>',
             "  </body>",
             "</body>",
@@ -168,8 +174,9 @@ def world_xml(config: SimConfig, obj: ObjectRecord, task: str) -> str:
     lines = [
         '<mujoco model="tognet_world">',
         '  <compiler angle="radian" autolimits="true"/>',
-        f'  <option timestep="{p.timestep:g}" integrator="{p.integrator}" cone="elliptic" impratio="{p.impratio:g}" '
-        f'iterations="{p.iterations}" noslip_iterations="{p.noslip_iterations}" gravity="0 0 {-p.gravity:g}">',
+        f'  <option timestep="{p.timestep:g}" integrator="{p.integrator}" cone="elliptic" '
+        f'impratio="{p.impratio:g}" iterations="{p.iterations}" noslip_iterations="{p.noslip_iterations}" '
+        f'gravity="0 0 {-p.gravity:g}">',
         '    <flag autoreset="disable"/>',
         "  </option>",
         '  <visual><global offwidth="640" offheight="480"/><quality shadowsize="1024"/></visual>',

@@ -7,14 +7,14 @@ MuJoCo) builds the props, runs the primitive and hands the outcome back as a :cl
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from enum import Enum
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 
-class FailureReason(str, Enum):
+class FailureReason(StrEnum):
     """Why an episode did not succeed (NONE for a success)."""
 
     NONE = "none"
