@@ -76,8 +76,8 @@ def seed_everything(seed: int, deterministic: bool, num_threads: int) -> None:
 class _Tensors:
     """Episode columns as tensors on a device, indexed by batches."""
 
-    def __init__(self, ep: EpisodeArrays, device: torch.device) -> None:
-        self.crop = torch.from_numpy(np.ascontiguousarray(ep.crop, dtype=np.float32)).to(device)
+    def __init__(self, ep: EpisodeArrays, device: torch.device, storage: str = "float32") -> None:
+        self.crop = torch.from_numpy(np.ascontiguousarray(ep.crop, dtype=np.dtype(storage))).to(device)
         self.z = torch.from_numpy(ep.z.astype(np.float32)).to(device)
         self.action = torch.from_numpy(ep.action.astype(np.float32)).to(device)
         self.s_g = torch.from_numpy(ep.grasp_success.astype(np.float32)).to(device)
@@ -106,7 +106,7 @@ def evaluate(model: TOGNet, data: _Tensors, config: TrainConfig) -> dict[str, An
     sigma = torch.tensor(config.loss.action_sigma, device=data.z.device)
     for lo in range(0, n, config.eval_batch_size):
         sl = slice(lo, lo + config.eval_batch_size)
-        out = model(data.crop[sl], data.z[sl])
+        out = model(data.crop[sl].float(), data.z[sl])
         s_g, s_t = data.s_g[sl], data.s_t[sl]
         a_pred = model.denormalize_action(out["action_norm"])
         ce_g = torch.nn.functional.binary_cross_entropy_with_logits(out["q_g_logit"], s_g, reduction="none")
@@ -209,7 +209,9 @@ def train(
     if len(val_ep) == 0:
         warnings.warn("no validation objects (one object, or val_fraction=0): early stopping uses the "
                       "training loss", stacklevel=2)
-    train_t, val_t = _Tensors(train_ep, device), _Tensors(val_ep, device)
+    train_t = _Tensors(train_ep, device, config.crop_storage)
+    val_t = _Tensors(val_ep, device, config.crop_storage)
+    del episodes, train_ep, val_ep
 
     model = TOGNet(config.arch).to(device)
     optimizer = torch.optim.Adam(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
@@ -246,7 +248,9 @@ def train(
         start_epoch = int(payload["epoch"])
         log(f"resuming {out} after epoch {start_epoch} (best val loss {best.get('loss')})")
     else:
-        model.set_normalization(normalization_from_data(train_t.crop, train_t.z, train_t.action, train_t.s_t))
+        stride = max(1, len(train_t) // 4096)  # crop statistics from at most ~4096 evenly spaced crops
+        model.set_normalization(normalization_from_data(train_t.crop[::stride].float(), train_t.z,
+                                                        train_t.action, train_t.s_t))
         out.mkdir(parents=True, exist_ok=True)
 
     config.save(out / "config.json")
@@ -271,7 +275,7 @@ def train(
                    leave=False, mininterval=1.0)
         for idx in bar:
             ix = torch.from_numpy(idx).to(device)
-            out_b = model(train_t.crop[ix], train_t.z[ix])
+            out_b = model(train_t.crop[ix].float(), train_t.z[ix])
             parts = tognet_loss(out_b["q_g_logit"], out_b["q_tg_logit"],
                                 model.denormalize_action(out_b["action_norm"]), train_t.s_g[ix],
                                 train_t.s_t[ix], train_t.action[ix], config.loss)
