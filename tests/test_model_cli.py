@@ -27,7 +27,8 @@ def test_end_to_end_train_and_info(tmp_path):
     cfg = tmp_path / "train.json"
     cfg.write_text(json.dumps({"arch": {"stem_channels": 8, "block_channels": [8], "block_strides": [2],
                                         "bottleneck_channels": 4, "head_hidden": 16},
-                               "batch_size": 32, "num_threads": 1, "val_fraction": 0.25, "crop_storage": "float16"}))
+                               "batch_size": 32, "num_threads": 1, "val_fraction": 0.25,
+                               "crop_storage": "float16"}))
     out = tmp_path / "out"
     r = runner.invoke(app, ["train", "--data", str(data), "--task", "hammering", "--out", str(out),
                             "--config", str(cfg), "--epochs", "2", "--no-progress"])
