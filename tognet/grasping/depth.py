@@ -1,8 +1,9 @@
 """A depth image prepared once for sampling and cropping: validated, holes filled, world heights.
 
-Real sensors leave holes (NaN or 0). They are filled with the nearest valid pixel (a Euclidean
-distance transform), which keeps object edges where they were instead of inventing steps to the
-background. Every later stage works on the filled image; the hole mask is kept for reference.
+Real sensors leave holes (NaN or 0). They are filled from their valid neighbours, layer by layer,
+taking the farthest neighbouring depth (holes at an object's edge become background, so the object
+keeps its outline and no step is invented); very large holes fall back to the nearest valid pixel.
+Every later stage works on the filled image; the hole mask is kept for reference.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ class DepthScene:
     Attributes:
         camera: the camera model the image was taken with.
         depth: float32 metres of camera-frame z, NaN holes (as validated).
-        filled: ``depth`` with holes filled by the nearest valid pixel.
+        filled: ``depth`` with holes filled (see :func:`fill_holes`).
         height: world z (metres) of the surface seen at each pixel, from ``filled``.
         holes: boolean mask of the holes in ``depth``.
     """
@@ -36,12 +37,39 @@ class DepthScene:
     holes: NDArray[np.bool_]
 
 
-def fill_holes(depth: NDArray[np.float32], holes: NDArray[np.bool_]) -> NDArray[np.float32]:
-    """Fill the ``holes`` of ``depth`` with the value of the nearest valid pixel."""
+def fill_holes(
+    depth: NDArray[np.float32], holes: NDArray[np.bool_], max_passes: int = 16
+) -> NDArray[np.float32]:
+    """Fill the ``holes`` of ``depth`` from their valid 8-neighbours, layer by layer, farthest first.
+
+    Each pass gives every hole pixel that touches a valid pixel the largest (farthest) valid
+    neighbouring depth, so a hole straddling an object's edge takes the background's value and the
+    object keeps its outline. Only hole pixels are touched, so sparse sensor dropouts cost little;
+    holes still open after ``max_passes`` passes take the nearest valid pixel (distance transform).
+    """
     if not holes.any():
         return depth
-    idx = ndimage.distance_transform_edt(holes, return_distances=False, return_indices=True)
-    return depth[idx[0], idx[1]]
+    out = depth.copy()
+    h, w = out.shape
+    open_ = holes.copy()
+    rows, cols = np.nonzero(open_)
+    dr = np.array([-1, -1, -1, 0, 0, 1, 1, 1])
+    dc = np.array([-1, 0, 1, -1, 1, -1, 0, 1])
+    for _ in range(max_passes):
+        if rows.size == 0:
+            return out
+        rr = np.clip(rows[:, None] + dr, 0, h - 1)
+        cc = np.clip(cols[:, None] + dc, 0, w - 1)
+        vals = np.where(open_[rr, cc], -np.inf, out[rr, cc])
+        best = vals.max(axis=1)
+        done = np.isfinite(best)
+        out[rows[done], cols[done]] = best[done]
+        open_[rows[done], cols[done]] = False
+        rows, cols = rows[~done], cols[~done]
+    if open_.any():
+        idx = ndimage.distance_transform_edt(open_, return_distances=False, return_indices=True)
+        out = out[idx[0], idx[1]]
+    return out
 
 
 def height_map(depth: NDArray[np.float32], camera: Camera) -> NDArray[np.float32]:
