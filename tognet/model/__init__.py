@@ -19,6 +19,7 @@ _EXPORTS = {
     "TOGNet": "tognet.model.network",
     "Prediction": "tognet.model.predict",
     "TOGNetPredictor": "tognet.model.predict",
+    "scorer_from_checkpoint": "tognet.model.predict",
     "train": "tognet.model.train",
 }
 

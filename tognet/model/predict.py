@@ -6,6 +6,12 @@
 
 ``Prediction`` holds ``q_g`` = Q_G, ``q_t_given_g`` = Q_T|G, ``q_t`` = Q_T|G * Q_G (all (N,), in [0, 1])
 and ``action_mean`` (N, 4) = f(o, g) in the stored action units (m, m, m, rad).
+
+From a depth image and grasps directly (crops and z by :mod:`tognet.grasping`)::
+
+    pred = predictor.predict_grasps(scene, grasps)       # scene: DepthScene (or depth + camera=...)
+    score = predictor.grasp_score_fn(scene, "task")       # grasps (M, 4) -> Q_T (M,), for CEM
+    score = scorer_from_checkpoint("best.pt", scene)      # the same, in one call
 """
 
 from __future__ import annotations
@@ -114,3 +120,43 @@ class TOGNetPredictor:
             return getattr(self.predict(crops, z), field[kind])
 
         return score
+
+    def predict_grasps(self, scene: Any, grasps: np.ndarray, camera: Any = None,
+                       crop_config: Any = None) -> Prediction:
+        """Predict for world grasps (M, 4) on a depth image: ``scene`` is a prepared
+        :class:`tognet.grasping.DepthScene` (or a raw depth image with ``camera``). Crops come from
+        :func:`tognet.grasping.extract_crops` (``crop_config``: a CropConfig, default CropConfig() with
+        this model's crop size) and z from :func:`tognet.grasping.grasp_depths`."""
+        from tognet.grasping import CropConfig, extract_crops, grasp_depths, prepare_depth
+
+        scene = prepare_depth(scene, camera)
+        cfg = crop_config or CropConfig(size=self.crop_size, center_size=self.model.arch.center_size)
+        if cfg.size != self.crop_size:
+            raise ValueError(f"crop_config.size={cfg.size} but the model takes {self.crop_size}-pixel crops")
+        grasps = np.asarray(grasps, dtype=np.float64).reshape(-1, 4)
+        crops = extract_crops(scene, None, grasps, cfg)
+        return self.predict(crops, grasp_depths(scene.camera, grasps).astype(np.float32))
+
+    def grasp_score_fn(self, scene: Any, kind: Literal["task", "grasp", "task_given_grasp"] = "task",
+                       camera: Any = None, crop_config: Any = None) -> Callable[[np.ndarray], np.ndarray]:
+        """A function grasps (M, 4) -> scores (M,) float64 on one depth image (the CEM's ``score_fn``)."""
+        field = {"task": "q_t", "grasp": "q_g", "task_given_grasp": "q_t_given_g"}
+        if kind not in field:
+            raise ValueError(f"kind must be one of {list(field)}, got {kind!r}")
+        from tognet.grasping import prepare_depth
+
+        scene = prepare_depth(scene, camera)
+
+        def score(grasps: np.ndarray) -> np.ndarray:
+            pred = self.predict_grasps(scene, grasps, crop_config=crop_config)
+            return getattr(pred, field[kind]).astype(np.float64)
+
+        return score
+
+
+def scorer_from_checkpoint(
+    path: str | Path, scene: Any, kind: Literal["task", "grasp", "task_given_grasp"] = "task"
+) -> Callable[[np.ndarray], np.ndarray]:
+    """Load a checkpoint and return its ``grasps (M, 4) -> scores (M,)`` function on ``scene``
+    (the hook ``tognet grasps --checkpoint`` calls)."""
+    return TOGNetPredictor.load(path).grasp_score_fn(scene, kind)
