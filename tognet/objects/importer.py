@@ -160,6 +160,9 @@ def import_meshes(
         except TognetError as exc:
             report.errors.append((path, f"{path}: {exc}"))
             continue
+        except Exception as exc:  # a library failing on one odd file must not stop the others
+            report.errors.append((path, f"{path}: could not be processed ({type(exc).__name__}: {exc})"))
+            continue
         final = out / oid
         if final.exists():
             old = out / f".replaced-{oid}"

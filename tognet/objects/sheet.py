@@ -45,7 +45,8 @@ def _draw(ax: plt.Axes, mesh: trimesh.Trimesh, view: str, colour: tuple[float, f
 
 
 def _label(record: ObjectRecord) -> str:
-    name = record.extra.get("name") if isinstance(record.extra, dict) else None
+    extra = record.extra if isinstance(record.extra, dict) else {}
+    name = extra.get("name") or extra.get("source")
     parts = "+".join(dict.fromkeys(record.part_types)) if record.part_types else ""
     first = record.object_id
     second = f"{record.shape_rule} {parts}" if record.shape_rule not in ("", "none") else (name or parts)
