@@ -32,3 +32,16 @@ def test_predict_grasps_matches_crops_path(scene):
     np.testing.assert_allclose(out, direct.q_g)
     with pytest.raises(ValueError, match="crop_config.size=32"):
         predictor.predict_grasps(scene, grasps, crop_config=CropConfig(size=32, center_size=16))
+
+
+@pytest.mark.parametrize("n", [1, 5, 300])
+def test_optimised_and_eager_predictors_agree(n):
+    torch.manual_seed(2)
+    model = TOGNet(ArchConfig()).eval()
+    rng = np.random.default_rng(n)
+    crops = rng.normal(0.0, 0.02, size=(n, 64, 64)).astype(np.float32)
+    z = rng.uniform(0.6, 1.0, size=n).astype(np.float32)
+    fast = TOGNetPredictor(model, device="cpu").predict(crops, z, batch_size=128)
+    slow = TOGNetPredictor(model, device="cpu", optimize=False).predict(crops, z)
+    for field in ("q_g", "q_t_given_g", "q_t", "action_mean"):
+        np.testing.assert_allclose(getattr(fast, field), getattr(slow, field), rtol=1e-4, atol=1e-6)

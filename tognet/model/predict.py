@@ -17,6 +17,7 @@ From a depth image and grasps directly (crops and z by :mod:`tognet.grasping`)::
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Literal
@@ -42,20 +43,39 @@ class Prediction:
         return int(self.q_g.shape[0])
 
 
+def _optimized(model: TOGNet, device: torch.device) -> Callable[..., dict[str, torch.Tensor]]:
+    """``torch.jit.optimize_for_inference`` of a trace of ``model`` (oneDNN layouts, fused conv + ReLU:
+    about 1.3-2x faster on this CPU); the eager model if tracing is unavailable or fails."""
+    try:
+        with warnings.catch_warnings(), torch.inference_mode():
+            warnings.simplefilter("ignore")
+            s = model.arch.crop_size
+            example = (torch.zeros(4, s, s, device=device), torch.full((4,), 0.8, device=device))
+            traced = torch.jit.trace(model, example, strict=False, check_trace=False)
+            return torch.jit.optimize_for_inference(traced)
+    except Exception as exc:  # an optimisation only: never fail loading because of it
+        warnings.warn(f"TorchScript optimisation unavailable ({type(exc).__name__}: {exc}); running eager",
+                      stacklevel=3)
+        return model
+
+
 class TOGNetPredictor:
-    """A trained TOG-Net in eval mode (batch norm folded) with its checkpoint's self-description."""
+    """A trained TOG-Net in eval mode (batch norm folded; TorchScript-optimised on CPU unless
+    ``optimize=False``) with its checkpoint's self-description in ``info``."""
 
     def __init__(self, model: TOGNet, info: dict[str, Any] | None = None,
-                 device: str | torch.device | None = None) -> None:
+                 device: str | torch.device | None = None, optimize: bool = True) -> None:
         self.device = select_device(device if not isinstance(device, torch.device) else str(device))
         self.model = fold_batchnorm(model).to(self.device).eval()
+        self._forward = _optimized(self.model, self.device) if optimize and self.device.type == "cpu" \
+            else self.model
         self.info = info or {}
         self.task: str | None = self.info.get("task")
         self.crop_size = model.arch.crop_size
 
     @classmethod
     def load(cls, path: str | Path, device: str | None = None, num_threads: int | None = None,
-             tune_malloc: bool = True) -> TOGNetPredictor:
+             tune_malloc: bool = True, optimize: bool = True) -> TOGNetPredictor:
         """Load a checkpoint (``best.pt`` or ``last.pt``). ``device``: None/'auto' picks CUDA if present.
         ``num_threads`` fixes torch's CPU threads; ``tune_malloc`` applies :func:`tune_allocator`."""
         if num_threads is not None:
@@ -66,7 +86,7 @@ class TOGNetPredictor:
         model = model_from_checkpoint(payload, path)
         info = describe(payload)
         info["path"] = str(path)
-        return cls(model, info, device)
+        return cls(model, info, device, optimize=optimize)
 
     def _inputs(self, crops: np.ndarray, z: np.ndarray) -> tuple[torch.Tensor, torch.Tensor]:
         crops = np.asarray(crops)
@@ -99,7 +119,7 @@ class TOGNetPredictor:
             return Prediction(e, e.copy(), e.copy(), np.zeros((0, 4), dtype=np.float32))
         q_g, q_tg, act = [], [], []
         for lo in range(0, n, batch_size):
-            out = self.model(c[lo : lo + batch_size], zz[lo : lo + batch_size])
+            out = self._forward(c[lo : lo + batch_size], zz[lo : lo + batch_size])
             q_g.append(torch.sigmoid(out["q_g_logit"]))
             q_tg.append(torch.sigmoid(out["q_tg_logit"]))
             act.append(self.model.denormalize_action(out["action_norm"]))
