@@ -2,7 +2,18 @@
 
 Pure numpy/scipy image and geometry code (torch only for batched bilinear sampling); no simulator.
 Prepare an image once with :func:`prepare_depth` and pass the :class:`DepthScene` to both
-:func:`sample_antipodal` and :func:`extract_crops` to validate and fill holes only once.
+:func:`sample_antipodal` and :func:`extract_crops` to validate and fill holes only once::
+
+    scene = prepare_depth(depth, camera)
+    cands = sample_antipodal(scene, None, AntipodalConfig(), rng)        # up to 200, maybe 0
+    crops = extract_crops(scene, None, cands.grasps, CropConfig())       # (N, 64, 64) metres
+    z = grasp_depths(camera, cands.grasps)                               # (N,) network z input
+    modes = nms(cands.grasps, cands.quality, NMSConfig())                # exploration grasps
+
+    def score_fn(g):                                                     # any (M, 4) -> (M,)
+        c = extract_crops(scene, None, g, CropConfig())
+        return net(c, center_crops(c), grasp_depths(camera, g))
+    best = cem(score_fn, cands.grasps, CEMConfig(), rng).best
 """
 
 from tognet.grasping.antipodal import AntipodalConfig, GraspCandidates, grasp_depths, sample_antipodal

@@ -13,8 +13,9 @@ exactly ``depth - gripper depth``; using world heights instead of raw depth remo
 tilted camera would otherwise put across every crop. Because the grid is metric (``extent`` metres
 across, whatever the camera's height or focal length), the crops do not change when the camera's
 height or intrinsics are disturbed, only through small perspective effects (a surface far below the
-grasp plane is seen slightly displaced away from the image centre). Holes were filled with the
-nearest valid pixel beforehand; grid points outside the image read the table height.
+grasp plane is seen slightly displaced away from the image centre). Holes were filled beforehand
+(from their farthest valid neighbours, see :func:`tognet.grasping.depth.fill_holes`); grid points
+outside the image read the table height.
 """
 
 from __future__ import annotations
