@@ -187,3 +187,16 @@ def test_finger_collision_check_drops_grasps_next_to_a_tall_obstacle():
     low_bar = lambda c: (np.abs(c.grasps[:, 1]) < 0.01) & (c.grasps[:, 2] < 0.02)  # noqa: E731
     assert low_bar(without).sum() > 0
     assert low_bar(with_check).sum() == 0
+
+
+def test_workspace_restricts_candidates_and_keeps_the_count():
+    camera = _camera(7)
+    shapes = [
+        Box.on_table(-0.15, 0.0, (0.16, 0.03, 0.03), 0.3),
+        Box.on_table(0.15, 0.0, (0.16, 0.03, 0.03), 1.2),
+    ]
+    depth = render_depth(camera, shapes)
+    config = AntipodalConfig(max_candidates=60, workspace=(0.0, 0.4, -0.3, 0.3))
+    cands = sample_antipodal(depth, camera, config, np.random.default_rng(0))
+    assert len(cands) == 60
+    assert np.all(cands.grasps[:, 0] > 0.03)

@@ -100,7 +100,7 @@ class AntipodalConfig(Config):
         "one at random per candidate; 'canonical' keeps phi in [0, pi).",
     )
     workspace: tuple[float, float, float, float] | None = doc(
-        None, "Optional world (x_min, x_max, y_min, y_max) box the grasp centre must lie in."
+        None, "Optional world (x_min, x_max, y_min, y_max) box the contacts' midpoint must lie in."
     )
 
 
@@ -269,7 +269,13 @@ def sample_antipodal(
     cos_j = (nj[:, 0] * dx + nj[:, 1] * dy) * inv
     cos_cone = np.float32(np.cos(np.arctan(config.friction_coef)))
     cos_min = cos_cone + np.float32(config.min_quality) * (1 - cos_cone)
-    good = np.nonzero((cos_i >= cos_min) & (cos_j >= cos_min) & (dist >= config.min_width))[0]
+    keep = (cos_i >= cos_min) & (cos_j >= cos_min) & (dist >= config.min_width)
+    if config.workspace is not None:
+        x0, x1, y0, y1 = config.workspace
+        mx = 0.5 * (pxy[i, 0] + pxy[j, 0])
+        my = 0.5 * (pxy[i, 1] + pxy[j, 1])
+        keep &= (mx >= x0) & (mx <= x1) & (my >= y0) & (my <= y1)
+    good = np.nonzero(keep)[0]
     if good.size == 0:
         return GraspCandidates.empty()
     i, j = i[good], j[good]
@@ -315,12 +321,6 @@ def sample_antipodal(
     if config.axis_direction == "random":
         phi = phi + np.pi * (rng.random(sel.size) < 0.5)
     grasps = np.column_stack([centre, z, np.mod(phi, 2 * np.pi)])
-    if config.workspace is not None:
-        x0, x1, y0, y1 = config.workspace
-        inside = (grasps[:, 0] >= x0) & (grasps[:, 0] <= x1) & (grasps[:, 1] >= y0) & (grasps[:, 1] <= y1)
-        grasps, sel, ends, width = grasps[inside], sel[inside], ends[inside], width[inside]
-        if sel.size == 0:
-            return GraspCandidates.empty()
     uv, zc = cam.project(grasps[:, :3])
     top = np.maximum(p[i[sel], 2], p[j[sel], 2])
     contacts = np.concatenate([ends, np.broadcast_to(top[:, None, None], ends.shape[:2] + (1,))], axis=2)
