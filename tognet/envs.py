@@ -157,9 +157,7 @@ class TognetEnv(gym.Env):
 def _register() -> None:
     for task, env_id in ENV_IDS.items():
         if env_id not in gym.registry:
-            gym.register(
-                id=env_id, entry_point="tognet.envs:TognetEnv", kwargs={"task": task}, max_episode_steps=1
-            )
+            gym.register(id=env_id, entry_point="tognet.envs:TognetEnv", kwargs={"task": task})
 
 
 _register()

@@ -90,6 +90,7 @@ class GripperConfig(Config):
     max_opening: float = doc(0.08, "Maximum distance between the finger pads (m).")
     finger_force: float = doc(60.0, "Force limit of each finger's closing actuator (N).")
     finger_kp: float = doc(2000.0, "Finger position-servo stiffness (N/m); saturates at the force limit.")
+    finger_kv: float = doc(200.0, "Finger servo damping (N s/m): limits the closing speed to about 0.5 m/s.")
     pad_friction: float = doc(1.0, "Sliding friction of the finger pads.")
     pad_torsional_friction: float = doc(0.02, "Torsional friction of the pads (m), condim 4.")
     pad_solref: tuple[float, float] = doc(
@@ -108,7 +109,7 @@ class GripperConfig(Config):
     yaw_speed: float = doc(
         9.0, "The wrist's full turning speed (rad/s): the hammer swing runs at it; transports too."
     )
-    linear_force: float = doc(150.0, "Force limit of each linear base actuator (N).")
+    linear_force: float = doc(100.0, "Force limit of each linear base actuator (N).")
     yaw_torque: float = doc(
         1.2,
         "Torque limit of the wrist (N m). Kept below peg_friction x the shortest useful lever, so the "
@@ -121,7 +122,7 @@ class GripperConfig(Config):
     yaw_armature: float = doc(0.002, "Reflected rotor inertia of the wrist (kg m^2).")
     hand_mass: float = doc(0.4, "Mass of the hand (palm), kg; gravity-compensated like the whole base.")
     approach_height: float = doc(0.08, "The gripper starts this far above the grasp and descends (m).")
-    close_time: float = doc(0.12, "Time allowed for the fingers to close (s).")
+    close_time: float = doc(0.15, "Time allowed for the fingers to close (s).")
     lift_height: float = doc(0.2, "Height of the grasp centre after the lift and during transports (m).")
     min_lift: float = doc(0.15, "The lift raises the grasp by at least this much (m).")
     hold_time: float = doc(0.06, "Hold after the lift before checking the grasp (s).")
@@ -138,8 +139,12 @@ class EpisodeConfig(Config):
     action_position_noise: float = doc(0.004, "Uniform +- noise on the start position (m).")
     action_yaw_noise: float = doc(np.pi / 90, "Uniform +- noise on the start yaw (rad).")
     lifted_clearance: float = doc(0.01, "S_G needs the tool's lowest point this far above the table (m).")
+    landing_depth: float = doc(
+        0.004, "On the way down to the grasp, a finger or palm pressing this deep into the object means the "
+        "gripper landed on it: the grasp fails there (the arm would stop on contact)."
+    )
     max_penetration: float = doc(0.02, "A contact deeper than this (m) makes the episode invalid.")
-    max_speed: float = doc(30.0, "Any body faster than this (m/s) makes the episode invalid.")
+    max_speed: float = doc(100.0, "Any joint velocity above this (m/s or rad/s) makes the episode invalid.")
     check_every: int = doc(10, "Contacts and stability are checked every this many steps.")
 
 

@@ -63,6 +63,10 @@ class _Unstable(Exception):
     pass
 
 
+class _Landed(Exception):
+    pass
+
+
 class Simulator:
     """The world with one object and one task's props (see the module docstring)."""
 
@@ -147,7 +151,7 @@ class Simulator:
         d, e = self.data, self.config.episode
         if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
             raise _Unstable("NaN in the state")
-        if np.max(np.abs(d.qvel)) > max(e.max_speed, 100.0):
+        if np.max(np.abs(d.qvel)) > e.max_speed:
             raise _Unstable(f"speed {np.max(np.abs(d.qvel)):.1f}")
         if d.ncon:
             # Things falling off the table hit the ground fast; only other contacts count as deep.
@@ -505,8 +509,12 @@ class Simulator:
         self._set_gripper(pos + np.array([0, 0, g.approach_height]), yaw, g.max_opening)
         mujoco.mj_forward(m, d)
         # Approach, close, lift, hold.
-        self._move(pos, None, g.approach_speed, g.yaw_speed)
-        self._converge()
+        try:
+            self._move(pos, None, g.approach_speed, g.yaw_speed, self._watch_landing)
+            self._converge(monitor=self._watch_landing)
+        except _Landed:
+            info["landed_on_object"] = True
+            return TrialResult(False, False, True, FailureReason.GRASP_FAILED, info)
         d.ctrl[4] = d.ctrl[5] = -0.02
         self._wait(g.close_time)
         lift_z = max(g.lift_height, pos[2] + g.min_lift)
@@ -548,6 +556,17 @@ class Simulator:
         if not self._held():
             return TrialResult(True, False, True, FailureReason.DROPPED, info)
         return self._primitive(info)
+
+    def _watch_landing(self) -> None:
+        """During the approach: a finger or the palm pressing into the object means it landed on it."""
+        d = self.data
+        n = d.ncon
+        if not n:
+            return
+        cats = np.sort(self._cat[d.contact.geom[:n]], axis=1)
+        hit = (cats[:, 0] == OBJECT) & np.isin(cats[:, 1], (FINGER_L, FINGER_R, GRIPPER))
+        if np.any(hit & (d.contact.dist[:n] < -self.config.episode.landing_depth)):
+            raise _Landed()
 
     def _held(self) -> bool:
         pairs = self._contacts()

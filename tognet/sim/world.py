@@ -111,7 +111,8 @@ def _gripper_xml(config: SimConfig) -> tuple[list[str], list[str]]:
     )
     for side in ("l", "r"):
         act.append(
-            f'<position name="act_finger_{side}" joint="finger_{side}" kp="{g.finger_kp:g}" kv="20" '
+            f'<position name="act_finger_{side}" joint="finger_{side}" kp="{g.finger_kp:g}" '
+            f'kv="{g.finger_kv:g}" '
             f'ctrlrange="-0.02 {half_open:.4f}" forcerange="{-g.finger_force:g} {g.finger_force:g}"/>'
         )
     return body, act

@@ -64,10 +64,10 @@ class HammeringConfig(Config):
         "Gripper start yaw at a_phi = 0 (rad): the tool (along gripper -y) meets the peg after 45 deg.",
     )
     action_low: tuple[float, float, float, float] = doc(
-        (-0.08, -0.13, -0.03, -np.pi / 4), "Lower corner of the action box (a_x, a_y, a_z m; a_phi rad)."
+        (-0.1, -0.13, -0.05, -np.pi / 4), "Lower corner of the action box (a_x, a_y, a_z m; a_phi rad)."
     )
     action_high: tuple[float, float, float, float] = doc(
-        (0.08, 0.13, 0.05, np.pi / 4), "Upper corner of the action box."
+        (0.1, 0.13, 0.06, np.pi / 4), "Upper corner of the action box."
     )
 
 

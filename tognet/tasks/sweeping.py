@@ -50,10 +50,10 @@ class SweepingConfig(Config):
     )
     nominal_yaw: float = doc(0.0, "Gripper start yaw at a_phi = 0 (rad): jaw axis along world x.")
     action_low: tuple[float, float, float, float] = doc(
-        (-0.15, -0.1, -0.03, -np.pi / 4), "Lower corner of the action box (a_x, a_y, a_z m; a_phi rad)."
+        (-0.15, -0.1, -0.05, -np.pi / 4), "Lower corner of the action box (a_x, a_y, a_z m; a_phi rad)."
     )
     action_high: tuple[float, float, float, float] = doc(
-        (0.15, 0.1, 0.05, np.pi / 4), "Upper corner of the action box."
+        (0.15, 0.1, 0.06, np.pi / 4), "Upper corner of the action box."
     )
 
 

@@ -1,0 +1,113 @@
+"""The simulated world: depth image, grasp and lift, determinism, state round-trips, invalid episodes."""
+
+import mujoco
+import numpy as np
+import pytest
+
+from tognet.geometry import Grasp
+from tognet.sim import FailureReason, SimConfig, Simulator
+from tognet.sim.checks import HAMMER_GRASPS, hammer_action
+from tognet.sim.tools import grasp_on_object, make_test_tools
+
+
+@pytest.fixture(scope="module")
+def tools(tmp_path_factory):
+    return make_test_tools(tmp_path_factory.mktemp("tools"))
+
+
+@pytest.fixture(scope="module")
+def hammer_sim(tools):
+    return Simulator(SimConfig(), "hammering", tools["t_hammer"])
+
+
+def far_end_grasp(sim):
+    pos, rot = sim.object_pose()
+    return grasp_on_object(pos, rot, *HAMMER_GRASPS["far_end"][:2])
+
+
+def test_depth_image_matches_full_ray_casting_and_sees_the_object(hammer_sim):
+    obs = hammer_sim.reset(3)
+    cam = obs.camera
+    assert obs.depth.shape == (424, 512) and obs.depth.dtype == np.float32
+    # Every pixel agrees with MuJoCo's ray caster over the whole image (table, ground and object).
+    dirs = cam.pixel_directions().reshape(-1, 3) @ cam.pose[:3, :3].T
+    n = len(dirs)
+    geomid, dist = np.empty(n, np.int32), np.empty(n)
+    groups = np.array([1, 1, 0, 0, 0, 0], np.uint8)
+    mujoco.mj_multiRay(hammer_sim.model, hammer_sim.data, cam.position, np.ascontiguousarray(dirs).ravel(),
+                       groups, 1, -1, geomid, dist, None, n, 4.5)
+    full = np.where(geomid >= 0, dist, np.nan).reshape(obs.depth.shape)
+    np.testing.assert_allclose(obs.depth, full, atol=1e-5)
+    # Deprojected, the image shows the table top at z = 0 and the tool up to 3 cm above it.
+    pts = cam.deproject(obs.depth).reshape(-1, 3)
+    on_table = (np.abs(pts[:, 0]) < 0.6) & (np.abs(pts[:, 1]) < 0.37)
+    heights = pts[on_table, 2]
+    assert np.median(heights) == pytest.approx(0.0, abs=1e-4)
+    tool = pts[on_table & (pts[:, 2] > 0.01)]
+    assert 300 < len(tool) < 20000 and tool[:, 2].max() == pytest.approx(0.03, abs=0.004)
+    com = hammer_sim.data.xipos[hammer_sim._obj_body]
+    assert np.linalg.norm(tool[:, :2].mean(axis=0) - com[:2]) < 0.05
+
+
+def test_camera_is_disturbed_per_scene_but_seeded(hammer_sim):
+    a = hammer_sim.reset(1).camera
+    b = hammer_sim.reset(2).camera
+    c = hammer_sim.reset(1).camera
+    assert not np.allclose(a.pose, b.pose)
+    np.testing.assert_array_equal(a.pose, c.pose)
+    assert a.intrinsics == c.intrinsics and a.intrinsics != b.intrinsics
+    assert np.linalg.norm(a.position - np.array([-0.305, 0.0, 0.72])) < 0.13
+
+
+def test_grasp_lifts_the_tool_and_a_grasp_in_the_air_fails(hammer_sim):
+    hammer_sim.reset(0)
+    res = hammer_sim.execute(far_end_grasp(hammer_sim), np.zeros(4), 0)
+    assert res.valid and res.grasp_success and res.info["object_lift"] > 0.15
+    pos, _ = hammer_sim.object_pose()
+    # After the trial the scene is restored for the next one: a grasp 15 cm beside the tool lifts nothing.
+    empty = hammer_sim.execute(Grasp(pos[0], pos[1] + 0.25, 0.02, 0.0), np.zeros(4), 0)
+    assert empty.valid and not empty.grasp_success and empty.failure == FailureReason.GRASP_FAILED
+    assert not empty.task_success
+
+
+def test_same_inputs_same_labels_and_state_round_trip(hammer_sim):
+    hammer_sim.reset(5)
+    saved = hammer_sim.save_state()
+    grasp = far_end_grasp(hammer_sim)
+    action = hammer_action(hammer_sim, "far_end")
+    first = hammer_sim.execute(grasp, action, 7)
+    after = hammer_sim.save_state()
+    assert not np.array_equal(saved, after)  # the trial moved things
+    second = hammer_sim.execute(grasp, action, 7)
+    assert (first.grasp_success, first.task_success, first.failure) == (
+        second.grasp_success, second.task_success, second.failure)
+    assert first.info["peg_out"] == second.info["peg_out"]
+    np.testing.assert_array_equal(after, hammer_sim.save_state())
+    hammer_sim.restore_state(saved)
+    np.testing.assert_array_equal(saved, hammer_sim.save_state())
+    # A fresh simulator with the same scene seed gives the same labels too.
+    other = Simulator(SimConfig(), "hammering", hammer_sim.obj)
+    other.reset(5)
+    third = other.execute(grasp, action, 7)
+    assert third.info["peg_out"] == first.info["peg_out"]
+
+
+def test_unstable_episode_is_invalid_never_a_success_or_failure(tools):
+    cfg = SimConfig()
+    cfg = cfg.replace(episode=cfg.episode.replace(max_speed=2.0))  # the swing turns faster than this
+    sim = Simulator(cfg, "hammering", tools["t_hammer"])
+    sim.reset(0)
+    res = sim.execute(far_end_grasp(sim), hammer_action(sim, "far_end"), 0)
+    assert not res.valid and res.failure == FailureReason.UNSTABLE
+    assert not res.task_success and not res.grasp_success
+
+
+def test_bad_inputs_raise_clear_errors(tools, hammer_sim):
+    with pytest.raises(ValueError, match="unknown task"):
+        Simulator(SimConfig(), "juggling", tools["t_hammer"])
+    fresh = Simulator(SimConfig(), "sweeping", tools["l_tool"])
+    with pytest.raises(Exception, match="reset"):
+        fresh.execute(Grasp(0, 0, 0.02, 0), np.zeros(4), 0)
+    hammer_sim.reset(0)
+    with pytest.raises(ValueError, match="4 finite numbers"):
+        hammer_sim.execute(Grasp(0, 0, 0.02, 0), np.zeros(3), 0)
