@@ -144,3 +144,25 @@ def test_render_grasps_takes_any_scorer(scene_files, tmp_path):
     )
     np.testing.assert_allclose(scores, -cands.grasps[:, 0])
     assert path.is_file()
+
+
+def test_render_grasps_cem_marks_the_best_in_red(scene_files, tmp_path):
+    _, camera, depth = scene_files
+    scene = prepare_depth(depth, camera)
+
+    def prefer_left(g):
+        return -g[:, 0]
+
+    config = AntipodalConfig(max_candidates=40)
+    _, _, plain = render_grasps(scene, tmp_path / "plain.png", config=config, score_fn=prefer_left)
+    _, _, marked = render_grasps(
+        scene, tmp_path / "cem.png", config=config, score_fn=prefer_left, use_cem=True
+    )
+
+    def red(path):
+        img = np.asarray(Image.open(path)).astype(int)
+        return np.sum((img[..., 0] > 200) & (img[..., 1] < 80) & (img[..., 2] < 80))
+
+    assert red(marked) > 50 and red(plain) == 0
+    with pytest.raises(Exception, match="--cem needs a scorer"):
+        render_grasps(scene, tmp_path / "x.png", config=config, use_cem=True)

@@ -18,7 +18,7 @@ from tognet.cliutil import user_errors
 from tognet.errors import TognetError
 from tognet.geometry import Camera
 from tognet.grasping.antipodal import AntipodalConfig, GraspCandidates, sample_antipodal
-from tognet.grasping.cem import ScoreFn
+from tognet.grasping.cem import CEMConfig, ScoreFn, cem
 from tognet.grasping.depth import DepthScene, load_depth_file, prepare_depth
 from tognet.grasping.draw import draw_grasps
 from tognet.grasping.nms import NMSConfig, nms
@@ -47,18 +47,41 @@ def render_grasps(
     score_fn: ScoreFn | None = None,
     use_nms: bool = False,
     nms_config: NMSConfig | None = None,
+    use_cem: bool = False,
+    cem_config: CEMConfig | None = None,
 ) -> tuple[GraspCandidates, np.ndarray, Path]:
-    """Sample candidates on ``scene``, score them (``score_fn`` or the analytic quality), draw to ``out``."""
-    cands = sample_antipodal(scene, None, config, np.random.default_rng(seed))
+    """Sample candidates on ``scene``, score them (``score_fn`` or the analytic quality), draw to ``out``.
+
+    With ``use_cem`` (needs ``score_fn``) the cross-entropy method refines the grasp from the candidates
+    and its best grasp is drawn in red on top.
+    """
+    if use_cem and score_fn is None:
+        raise TognetError(
+            "--cem needs a scorer (--checkpoint): the analytic quality only exists for candidates"
+        )
+    rng = np.random.default_rng(seed)
+    cands = sample_antipodal(scene, None, config, rng)
     scores = cands.quality if score_fn is None or len(cands) == 0 else np.asarray(score_fn(cands.grasps))
     if scores.shape != (len(cands),):
         raise TognetError(f"the scorer returned shape {scores.shape} for {len(cands)} grasps")
     if use_nms and len(cands):
         keep = nms(cands.grasps, scores, nms_config or NMSConfig())
         cands, scores = cands.subset(keep), scores[keep]
+    highlight = None
     label = "analytic quality" if score_fn is None else "scorer"
+    if use_cem and score_fn is not None and len(cands):
+        result = cem(score_fn, cands.grasps, cem_config or CEMConfig(), rng)
+        highlight = result.best
+        label += f", CEM best {result.best_score:.3f}"
     path = draw_grasps(
-        scene.depth, scene.camera, cands.grasps, scores, out, widths=cands.widths, title=f"[{label}]"
+        scene.depth,
+        scene.camera,
+        cands.grasps,
+        scores,
+        out,
+        widths=cands.widths,
+        title=f"[{label}]",
+        highlight=highlight,
     )
     return cands, scores, path
 
@@ -76,6 +99,9 @@ def grasps(
     use_nms: bool = typer.Option(
         False, "--nms", help="Draw only the grasps kept by non-maximum suppression."
     ),
+    use_cem: bool = typer.Option(
+        False, "--cem", help="With --checkpoint: refine by the cross-entropy method, best grasp drawn in red."
+    ),
     config: Path | None = typer.Option(None, "--config", help="AntipodalConfig JSON (defaults otherwise)."),
 ) -> None:
     """Sample antipodal grasp candidates on a depth image and draw them, coloured by score."""
@@ -88,7 +114,9 @@ def grasps(
     except ValueError as exc:
         raise TognetError(f"{depth}: {exc}") from exc
     score_fn = load_scorer(checkpoint, scene) if checkpoint is not None else None
-    cands, scores, path = render_grasps(scene, out, config=cfg, seed=seed, score_fn=score_fn, use_nms=use_nms)
+    cands, scores, path = render_grasps(
+        scene, out, config=cfg, seed=seed, score_fn=score_fn, use_nms=use_nms, use_cem=use_cem
+    )
     if len(cands) == 0:
         typer.echo(f"no grasp candidates found; wrote {path}")
         return

@@ -41,11 +41,13 @@ def draw_grasps(
     widths: NDArray[np.float64] | None = None,
     title: str = "",
     scale: int = 2,
+    highlight: NDArray[np.float64] | None = None,
 ) -> Path:
     """Write a PNG of the depth image with one jaw line per grasp, coloured by ``scores`` (viridis).
 
     The line joins the two finger positions (width ``widths``, default 0.05 m); a dot marks the
-    finger at phi's positive direction, so phi and phi + pi are told apart.
+    finger at phi's positive direction, so phi and phi + pi are told apart. ``highlight`` (one grasp,
+    e.g. the CEM's best) is drawn in red on top.
     """
     from matplotlib import colormaps
     from PIL import Image, ImageDraw
@@ -71,6 +73,12 @@ def draw_grasps(
         text = f"{title} {len(grasps)} grasps, score {lo:.2f}..{hi:.2f}".strip()
     else:
         text = f"{title} no grasp candidates".strip()
+    if highlight is not None:
+        (u0, v0), (u1, v1) = (
+            jaw_endpoints(camera, np.asarray(highlight).reshape(1, 4), np.array([0.05]))[0] * scale
+        )
+        draw.line([(u0, v0), (u1, v1)], fill=(255, 40, 40), width=4)
+        draw.ellipse([u1 - 5, v1 - 5, u1 + 5, v1 + 5], fill=(255, 40, 40))
     draw.text((6, 6), text, fill=(255, 255, 0))
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
