@@ -395,7 +395,13 @@ def shard_paths(folder: str | Path) -> list[Path]:
         raise DatasetError(f"{folder}: dataset folder not found")
     manifest = _read_manifest(folder)
     if manifest is not None:
-        return [folder / s["file"] for s in manifest["shards"]]
+        listed = [folder / s["file"] for s in manifest["shards"]]
+        orphans = sorted({p.name for p in folder.iterdir() if SHARD_PATTERN.match(p.name)}
+                         - {p.name for p in listed})
+        if orphans:
+            warnings.warn(f"{folder}: shard files not in the manifest are ignored: {orphans} (a writer "
+                          "stopped between writing a shard and updating the manifest?)", stacklevel=3)
+        return listed
     return sorted(p for p in folder.iterdir() if SHARD_PATTERN.match(p.name))
 
 

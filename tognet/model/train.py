@@ -135,7 +135,9 @@ def _config_differences(a: TrainConfig, b: TrainConfig) -> list[str]:
 
 
 def _data_fingerprint(desc: dict[str, Any]) -> list[tuple[str, list[Any]]]:
-    return [(d["dir"], [(s["file"], s["count"], s["sha256"]) for s in d["shards"]]) for d in desc["datasets"]]
+    # the shards' names, counts and hashes, not the folder paths (a relative --data may differ on resume)
+    return [(d["task"], [(s["file"], s["count"], s["sha256"]) for s in d["shards"]])
+            for d in desc["datasets"]]
 
 
 def plot_curves(history: Sequence[dict[str, Any]], path: Path) -> Path:
