@@ -259,29 +259,31 @@ def sample_antipodal(
     if pairs.shape[0] == 0:
         return GraspCandidates.empty()
     i, j = pairs[:, 0], pairs[:, 1]
-    dx = pxy[j, 0] - pxy[i, 0]
-    dy = pxy[j, 1] - pxy[i, 1]
-    dist = np.sqrt(dx * dx + dy * dy)
-    inv = 1.0 / np.maximum(dist, np.float32(1e-9))
-    # Outward normal at i must point away from j (n_i . axis = -1 ideally), at j away from i (+1).
-    ni, nj = n_xy[i], n_xy[j]
-    cos_i = -(ni[:, 0] * dx + ni[:, 1] * dy) * inv
-    cos_j = (nj[:, 0] * dx + nj[:, 1] * dy) * inv
+    px, py = pxy[:, 0], pxy[:, 1]
+    nx, ny = n_xy[:, 0].copy(), n_xy[:, 1].copy()
+    dx = px[j] - px[i]
+    dy = py[j] - py[i]
+    # Outward normal at i must point away from j (n_i . axis = -1 ideally), at j away from i (+1):
+    # a = -n_i . d and b = n_j . d must both be >= cos_min * |d| (compared squared, no square roots).
+    a = -(nx[i] * dx + ny[i] * dy)
+    b = nx[j] * dx + ny[j] * dy
+    d2 = dx * dx + dy * dy
     cos_cone = np.float32(np.cos(np.arctan(config.friction_coef)))
     cos_min = cos_cone + np.float32(config.min_quality) * (1 - cos_cone)
-    keep = (cos_i >= cos_min) & (cos_j >= cos_min) & (dist >= config.min_width)
+    lim = np.float32(cos_min * cos_min) * d2
+    keep = (a > 0) & (b > 0) & (a * a >= lim) & (b * b >= lim) & (d2 >= np.float32(config.min_width**2))
     if config.workspace is not None:
         x0, x1, y0, y1 = config.workspace
-        mx = 0.5 * (pxy[i, 0] + pxy[j, 0])
-        my = 0.5 * (pxy[i, 1] + pxy[j, 1])
+        mx = 0.5 * (px[i] + px[j])
+        my = 0.5 * (py[i] + py[j])
         keep &= (mx >= x0) & (mx <= x1) & (my >= y0) & (my <= y1)
     good = np.nonzero(keep)[0]
     if good.size == 0:
         return GraspCandidates.empty()
     i, j = i[good], j[good]
-    dist = dist[good].astype(np.float64)
+    dist = np.sqrt(d2[good].astype(np.float64))
     axis = np.column_stack([dx[good], dy[good]]).astype(np.float64) / dist[:, None]
-    min_cos = np.minimum(cos_i[good], cos_j[good]).astype(np.float64)
+    min_cos = np.minimum(a[good], b[good]).astype(np.float64) / dist
     quality = np.clip((min_cos - cos_cone) / max(1.0 - cos_cone, 1e-9), 0.0, 1.0)
 
     # Distinct cells in (centre pixel, jaw-axis angle mod pi).
