@@ -38,6 +38,14 @@ def test_end_to_end_train_and_info(tmp_path):
     r = runner.invoke(app, ["model", "info", str(out / "best.pt")])
     assert r.exit_code == 0, r.output
     assert "task         hammering" in r.output and "val grasp" in r.output
+    test = tmp_path / "test"
+    assert runner.invoke(app, ["data", "synthetic", str(test), "--task", "hammering", "--episodes", "50",
+                               "--seed", "9"]).exit_code == 0
+    r = runner.invoke(app, ["model", "eval", str(out / "best.pt"), "--data", str(test), "--out",
+                            str(tmp_path / "eval.json")])
+    assert r.exit_code == 0, r.output
+    ev = json.loads((tmp_path / "eval.json").read_text())
+    assert ev["count"] == 50 and ev["task"] == "hammering" and "auc" in ev["metrics"]["grasp"]
     r = runner.invoke(app, ["model", "info", "--json", str(out / "last.pt")])
     assert json.loads(r.output)["resumable"] is True
     r = runner.invoke(app, ["train", "--data", str(data), "--task", "hammering", "--out", str(out),

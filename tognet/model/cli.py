@@ -1,4 +1,4 @@
-"""Commands: ``tognet train``, ``tognet model info``, ``tognet data info`` and ``tognet data synthetic``."""
+"""Commands: ``tognet train``, ``tognet model info|eval``, ``tognet data info|synthetic``."""
 
 from __future__ import annotations
 
@@ -82,6 +82,23 @@ def info_cmd(
 
 
 @user_errors
+def eval_cmd(
+    checkpoint: Path = typer.Argument(..., help="A checkpoint file (best.pt or last.pt)."),
+    data: list[Path] = typer.Option(..., "--data", help="Episode dataset folder (repeat for several)."),
+    out: Path | None = typer.Option(None, "--out", help="Write the metrics to this JSON file too."),
+) -> None:
+    """Loss and per-head metrics (AUC, accuracy, ECE, action error) of a checkpoint on episode data."""
+    from tognet.model.train import evaluate_checkpoint
+
+    result = evaluate_checkpoint(checkpoint, data)
+    text = json.dumps(result, indent=2)
+    if out is not None:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(text + "\n")
+    typer.echo(text)
+
+
+@user_errors
 def data_info_cmd(
     folder: Path = typer.Argument(..., help="An episode dataset folder (with manifest.json)."),
     check: bool = typer.Option(False, "--check", help="Also read every shard (finds corrupt ones)."),
@@ -128,6 +145,7 @@ def register(app: typer.Typer) -> None:
     """Add ``train``, ``model`` and ``data`` to the tognet command."""
     app.command("train")(train_cmd)
     model_app.command("info")(info_cmd)
+    model_app.command("eval")(eval_cmd)
     data_app.command("info")(data_info_cmd)
     data_app.command("synthetic")(data_synth_cmd)
     app.add_typer(model_app, name="model")

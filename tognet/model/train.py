@@ -348,3 +348,19 @@ def _write_metrics(out: Path, history: list[dict[str, Any]], best: dict[str, Any
     tmp = out / ".metrics.json.tmp"
     tmp.write_text(text)
     os.replace(tmp, out / "metrics.json")
+
+
+def evaluate_checkpoint(path: str | Path, data_dirs: Sequence[str | Path], *, skip_bad: bool = False,
+                        device: str | None = "cpu") -> dict[str, Any]:
+    """Loss components and per-head metrics of a checkpoint on every valid episode of ``data_dirs``
+    (e.g. episodes on held-out test objects). The data must be of the checkpoint's task."""
+    payload = load_checkpoint(path)
+    config: TrainConfig = payload["config_obj"]
+    dev = select_device(device)
+    model = model_from_checkpoint(payload, path).to(dev)
+    episodes = read_dataset(data_dirs, task=payload["task"], skip_bad=skip_bad)
+    result = evaluate(model, _Tensors(episodes, dev), config)
+    result["objects"] = int(len(np.unique(episodes.object_id)))
+    result["task"] = payload["task"]
+    result["checkpoint"] = str(path)
+    return result
