@@ -127,3 +127,15 @@ def test_empty_and_bad_grasps():
         extract_crops(scene, None, np.zeros((3, 3)), CropConfig())
     with pytest.raises(ValueError, match="NaN"):
         extract_crops(scene, None, np.full((1, 4), np.nan), CropConfig())
+
+
+def test_far_surfaces_are_clipped():
+    # A camera wide enough to see past the table: with no table plane the floor is 0.75 m down.
+    camera = tilted_camera(0.9)
+    depth = render_depth(camera, [Box.on_table(0.0, 0.0, (0.2, 0.03, 0.04), 0.0)], table_z=None)
+    depth[np.isnan(depth)] = 0.9 + 0.75  # the floor
+    grasp = np.array([[0.0, 0.0, 0.02, 0.0]])
+    clipped = extract_crops(depth, camera, grasp, CropConfig())
+    raw = extract_crops(depth, camera, grasp, CropConfig(max_value=None))
+    assert raw.max() > 0.7 and clipped.max() == pytest.approx(0.3)
+    np.testing.assert_array_equal(clipped[raw < 0.3], raw[raw < 0.3])

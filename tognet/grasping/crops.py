@@ -42,6 +42,11 @@ class CropConfig(Config):
     )
     center_size: int = doc(32, "Side of the centre crop (the grasp-quality stream's input).")
     table_z: float = doc(0.0, "World height (m) read for grid points that fall outside the image.")
+    max_value: float | None = doc(
+        0.3,
+        "Values are clipped to at most this (m below the gripper centre): a floor seen past the table's "
+        "edge (~0.75 m down) would otherwise dominate normalisation statistics. None: no clipping.",
+    )
 
     @property
     def resolution(self) -> float:
@@ -124,7 +129,10 @@ def extract_crops(
         .reshape(n, m, m)
     )
     z = (grasps[:, 2] - config.table_z).astype(np.float32)
-    return np.subtract(z[:, None, None], sampled, out=sampled)
+    out = np.subtract(z[:, None, None], sampled, out=sampled)
+    if config.max_value is not None:
+        np.minimum(out, np.float32(config.max_value), out=out)
+    return out
 
 
 def center_crops(crops: NDArray[np.float32], center_size: int = 32) -> NDArray[np.float32]:

@@ -13,7 +13,13 @@ from tognet.geometry import Camera
 def depth_to_rgb(depth: NDArray[np.float32]) -> NDArray[np.uint8]:
     """Grey-scale rendering (near = bright) of a depth image; holes are dark red."""
     valid = np.isfinite(depth)
-    lo, hi = np.percentile(depth[valid], [1, 99]) if valid.any() else (0.0, 1.0)
+    if valid.any():
+        # Near end: the nearest percent; far end: just beyond the median (the table), so that a floor
+        # seen past the table's edge does not wash out the objects' few centimetres of relief.
+        lo, med = np.percentile(depth[valid], [1, 50])
+        hi = med + 0.02
+    else:
+        lo, hi = 0.0, 1.0
     span = max(float(hi - lo), 1e-6)
     grey = np.clip((hi - np.nan_to_num(depth, nan=hi)) / span, 0, 1) * 200 + 30
     rgb = np.repeat(grey[..., None], 3, axis=2).astype(np.uint8)
