@@ -122,6 +122,7 @@ class Simulator:
         self._recorder: Any = None
         self._dt = float(m.opt.timestep)
         self.timers = {"physics": 0.0, "raycast": 0.0}
+        self.steps = 0  # physics steps taken since construction (for benchmarks)
         self._ray_dirs_cam: NDArray[np.float64] | None = None
 
     # ------------------------------------------------------------------------------------------------
@@ -136,6 +137,7 @@ class Simulator:
         t0 = time.perf_counter()
         mujoco.mj_step(self.model, self.data, nstep=n)
         self.timers["physics"] += time.perf_counter() - t0
+        self.steps += n
         if self._recorder is not None:
             self._recorder(self)
 
@@ -516,9 +518,16 @@ class Simulator:
             info["landed_on_object"] = True
             return TrialResult(False, False, True, FailureReason.GRASP_FAILED, info)
         d.ctrl[4] = d.ctrl[5] = -0.02
-        self._wait(g.close_time)
+        fingers = [self._dadr["finger_l"], self._dadr["finger_r"]]
+        closing = {"steps": 0}
+
+        def closed() -> bool:  # both fingers stopped (on the object or fully closed)
+            closing["steps"] += 1
+            return closing["steps"] >= 3 and bool(np.max(np.abs(d.qvel[fingers])) < 0.03)
+
+        self._wait(g.close_time, until=closed)
         lift_z = max(g.lift_height, pos[2] + g.min_lift)
-        self._move(np.array([pos[0], pos[1], lift_z]), None, g.approach_speed, g.yaw_speed)
+        self._move(np.array([pos[0], pos[1], lift_z]), None, g.lift_speed, g.yaw_speed)
         self._wait(g.hold_time)
         held = self._held()
         lifted = self._object_clear()
@@ -537,7 +546,7 @@ class Simulator:
         cur_yaw = float(d.act[3])
         start_yaw = cur_yaw + (start_yaw - cur_yaw + np.pi) % (2 * np.pi) - np.pi
         info["start_pose"] = [*map(float, start), float(start_yaw)]
-        high = max(g.transport_clearance, lift_z)
+        high = start[2] + g.start_clearance
         hit_before = [False]
 
         def watch_props() -> None:

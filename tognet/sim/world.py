@@ -41,7 +41,7 @@ def _object_xml(config: SimConfig, obj: ObjectRecord) -> tuple[list[str], list[s
         f'  <inertial pos="{_v(obj.com)}" mass="{obj.mass:.9g}" fullinertia="{_v(full)}"/>',
     ]
     body += [
-        f'  <geom name="piece_{i:02d}" type="mesh" mesh="piece_{i:02d}" friction="{friction}" condim="4" '
+        f'  <geom name="piece_{i:02d}" type="mesh" mesh="piece_{i:02d}" friction="{friction}" condim="3" '
         f'priority="1" group="{GROUP_OBJECT_COLLISION}" rgba="0.8 0.5 0.2 1"/>'
         for i in range(len(obj.collision_paths))
     ]
@@ -144,7 +144,8 @@ def _props_xml(config: SimConfig, task: str) -> list[str]:
         return [
             f'<body name="slot" pos="0.3 0 {c.peg_height:g}">',
             f'  <geom name="slot" type="box" size="{0.5 * depth:g} {0.5 * width:g} {0.5 * height:g}" '
-            f'pos="{0.5 * depth:g} 0 {0.5 * height - c.peg_height:g}" group="{GROUP_PROPS}" '
+            f'pos="{0.5 * depth:g} 0 {0.5 * height - c.peg_height:g}" group="{GROUP_PROPS}" priority="3" '
+            f'solref="{c.contact_solref[0]:g} {c.contact_solref[1]:g}" '
             'rgba="0.3 0.45 0.7 1"/>',
             '  <body name="peg">',
             f'    <joint name="peg" type="slide" axis="1 0 0" range="-0.001 {0.5 * length + 0.001:g}" '
@@ -152,7 +153,9 @@ def _props_xml(config: SimConfig, task: str) -> list[str]:
             'solimpfriction="0.99 0.999 0.001"/>',
             f'    <geom name="peg" type="box" size="{0.5 * length:g} {0.5 * s:g} {0.5 * s:g}" '
             f'mass="{c.peg_mass:g}" '
-            f'friction="0.5 0.005 0.0001" group="{GROUP_PROPS}" rgba="0.9 0.8 0.2 1"/>',
+            f'friction="0.5 0.005 0.0001" priority="3" '
+            f'solref="{c.contact_solref[0]:g} {c.contact_solref[1]:g}" '
+            f'group="{GROUP_PROPS}" rgba="0.9 0.8 0.2 1"/>',
             "  </body>",
             "</body>",
         ]

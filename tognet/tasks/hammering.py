@@ -46,13 +46,17 @@ class HammeringConfig(Config):
     peg_friction: float = doc(
         12.0, "Dry friction resisting the peg's slide (N): frictionloss on its joint, stiff solreffriction."
     )
+    contact_solref: tuple[float, float] = doc(
+        (0.005, 1.0),
+        "Contact solref of the peg and slot (time constant s, damping ratio): stiff, like metal.",
+    )
     slot_size: tuple[float, float, float] = doc(
         (0.12, 0.1, 0.09), "Slot block size (m): depth along x, width along y, height (from the table)."
     )
     success_tolerance: float = doc(
         0.003, "The peg counts as fully inside when at most this much sticks out (m)."
     )
-    settle_time: float = doc(0.15, "Time simulated after the swing before checking (s).")
+    settle_time: float = doc(0.1, "Time simulated after the swing before checking (s).")
     swing: float = doc(np.pi / 2, "Wrist turn of the primitive (rad), counter-clockwise.")
     nominal_offset: tuple[float, float, float] = doc(
         (-0.06, 0.22, 0.0),
