@@ -29,21 +29,27 @@ def _stats(ts: list[float]) -> str:
     return f"median {np.median(a):6.2f} ms  p90 {np.percentile(a, 90):6.2f} ms  min {a.min():6.2f} ms"
 
 
-def bench_inference(threads: int, repeats: int, n: int = 200) -> list[float]:
-    torch.set_num_threads(threads)
+def bench_inference(repeats: int, n: int = 200) -> dict[tuple[str, int], tuple[list[float], list[float]]]:
+    """Wall and process-CPU seconds per predict() call for eager/TorchScript x 1/2 threads, the settings
+    interleaved call by call so that other jobs on the machine affect them alike."""
     torch.manual_seed(0)
-    predictor = TOGNetPredictor(TOGNet(ArchConfig()).eval(), device="cpu")
+    model = TOGNet(ArchConfig()).eval()
+    predictors = {"eager": TOGNetPredictor(model, device="cpu", optimize=False),
+                  "torchscript": TOGNetPredictor(model, device="cpu", optimize=True)}
     rng = np.random.default_rng(0)
     crops = rng.normal(0.0, 0.02, size=(n, 64, 64)).astype(np.float32)
     z = rng.uniform(0.6, 1.0, size=n).astype(np.float32)
-    for _ in range(5):
-        predictor.predict(crops, z)
-    ts = []
-    for _ in range(repeats):
-        t = time.perf_counter()
-        predictor.predict(crops, z)
-        ts.append(time.perf_counter() - t)
-    return ts
+    settings = [(kind, threads) for kind in predictors for threads in (1, 2)]
+    out: dict[tuple[str, int], tuple[list[float], list[float]]] = {k: ([], []) for k in settings}
+    for i in range(repeats + 5):
+        for kind, threads in settings:
+            torch.set_num_threads(threads)
+            w, c = time.perf_counter(), time.process_time()
+            predictors[kind].predict(crops, z)
+            if i >= 5:  # warm-up calls are not timed
+                out[(kind, threads)][0].append(time.perf_counter() - w)
+                out[(kind, threads)][1].append(time.process_time() - c)
+    return out
 
 
 def bench_training(threads: int, steps: int, batch: int) -> float:
@@ -85,17 +91,20 @@ def main() -> None:
           f"{platform.python_version()}, torch {torch.__version__}; load average {os.getloadavg()}")
     model = TOGNet(ArchConfig())
     print(f"default architecture: {sum(p.numel() for p in model.parameters())} parameters")
-    print("inference, 200 candidates, TOGNetPredictor.predict (BN folded, inference mode):")
-    for threads in (1, 2):
-        ts = bench_inference(threads, args.repeats)
-        print(f"  glibc default allocator, {threads} thread(s): {_stats(ts)}")
-    tuned = tune_allocator()
-    for threads in (1, 2):
-        ts = bench_inference(threads, args.repeats)
-        print(f"  tuned allocator ({tuned}),  {threads} thread(s): {_stats(ts)}")
+    print("inference, 200 candidates, TOGNetPredictor.predict (BN folded, inference mode, numpy in/out);")
+    print("wall time, and process CPU time (what one idle core would need; with 2 threads both cores' sum):")
+    for allocator in ("glibc default", "tuned"):
+        if allocator == "tuned":
+            tune_allocator()
+        for (kind, threads), (wall, cpu) in bench_inference(args.repeats).items():
+            print(f"  {allocator:13s} allocator, {kind:11s}, {threads} thread(s): wall {_stats(wall)}")
+            print(f"  {'':13s}            {'':11s}              cpu  {_stats(cpu)}")
     print(f"training, batch {args.batch}, default architecture, Adam step:")
     for threads in (1, 2):
-        print(f"  {threads} thread(s): {bench_training(threads, args.steps, args.batch):7.0f} samples/s")
+        c = time.process_time()
+        rate = bench_training(threads, args.steps, args.batch)
+        cpu = time.process_time() - c
+        print(f"  {threads} thread(s): {rate:7.0f} samples/s wall ({cpu:.1f} s CPU, {args.steps + 3} steps)")
     print(f"load average after: {os.getloadavg()}")
 
 
