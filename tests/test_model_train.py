@@ -135,6 +135,11 @@ def test_bad_checkpoints_give_clear_errors(trained, tmp_path):
     torch.save(dict(payload, config=cfg), tmp_path / "cfg.pt")
     with pytest.raises(CheckpointError, match="config does not match.*unknown key 'dropout'"):
         TOGNetPredictor.load(tmp_path / "cfg.pt")
+    cfg = dict(payload["config"])
+    cfg["arch"] = {k: v for k, v in cfg["arch"].items() if k != "stem_stride"}
+    torch.save(dict(payload, config=cfg), tmp_path / "older.pt")
+    with pytest.raises(CheckpointError, match=r"lacks \['arch.stem_stride'\].*older tognet"):
+        TOGNetPredictor.load(tmp_path / "older.pt")
     sd = dict(payload["state_dict"])
     sd.pop(next(iter(sd)))
     torch.save(dict(payload, state_dict=sd), tmp_path / "sd.pt")

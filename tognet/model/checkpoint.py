@@ -123,6 +123,13 @@ def load_checkpoint(path: str | Path, map_location: str | torch.device = "cpu") 
             f"({tognet.__version__}) reads version {FORMAT_VERSION}; retrain the model with this version"
         )
     written_by = payload.get("code", {})
+    missing = _missing_keys(payload.get("config", {}), TrainConfig().to_dict())
+    if missing:
+        raise CheckpointError(
+            f"{path}: its config lacks {missing}, fields this tognet ({tognet.__version__}) needs; it was "
+            f"written by an older tognet {written_by.get('tognet')} (commit {written_by.get('git_commit')}); "
+            "retrain the model with this version"
+        )
     try:
         config = TrainConfig.from_dict(payload["config"], where=f"{path}:config")
         arch = ArchConfig.from_dict(payload["arch"], where=f"{path}:arch")
@@ -135,6 +142,19 @@ def load_checkpoint(path: str | Path, map_location: str | torch.device = "cpu") 
         raise CheckpointError(f"{path}: 'arch' and 'config.arch' disagree; the file was edited or is corrupt")
     payload["config_obj"] = config
     return payload
+
+
+def _missing_keys(data: Any, reference: dict[str, Any], prefix: str = "") -> list[str]:
+    """Keys of ``reference`` (recursively) absent from ``data``."""
+    if not isinstance(data, dict):
+        return []
+    out = []
+    for key, value in reference.items():
+        if key not in data:
+            out.append(prefix + key)
+        elif isinstance(value, dict):
+            out.extend(_missing_keys(data[key], value, f"{prefix}{key}."))
+    return out
 
 
 def model_from_checkpoint(payload: dict[str, Any], path: str | Path = "<checkpoint>") -> TOGNet:

@@ -208,6 +208,8 @@ def train(
         "val_objects": int(len(np.unique(val_ep.object_id))),
         "val_fraction": config.val_fraction, "seed": config.seed,
     }
+    if len(train_ep) < 2:
+        raise TrainingError(f"only {len(train_ep)} training episodes after the split by object")
     if len(val_ep) == 0:
         warnings.warn("no validation objects (one object, or val_fraction=0): early stopping uses the "
                       "training loss", stacklevel=2)
