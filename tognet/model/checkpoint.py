@@ -15,8 +15,9 @@ A checkpoint is a ``torch.save`` dict (loaded with ``weights_only=True``: plain 
     epoch, best, metrics            epochs completed, best validation record, latest metrics
     training                        (last.pt only) optimiser, scheduler, RNG states, history, patience
 
-Reading a checkpoint of another format version, or whose config does not parse as this code's
-TrainConfig, raises :class:`CheckpointError` with the reason; so does a truncated or corrupt file.
+Reading a checkpoint of another format version, or whose config lacks a field this code's TrainConfig
+has (written by an older tognet) or has one it does not know, raises :class:`CheckpointError` with the
+reason; so does a truncated or corrupt file, or weights that do not fit the recorded architecture.
 """
 
 from __future__ import annotations
