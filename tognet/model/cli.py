@@ -9,7 +9,7 @@ import typer
 
 from tognet.cliutil import user_errors
 
-model_app = typer.Typer(help="Inspect trained TOG-Net checkpoints.", no_args_is_help=True)
+model_app = typer.Typer(help="Inspect and evaluate trained TOG-Net checkpoints.", no_args_is_help=True)
 data_app = typer.Typer(help="Inspect and make episode datasets.", no_args_is_help=True)
 
 
