@@ -138,3 +138,20 @@ def test_configs_saved_beside_without_overwrite(tmp_path):
     assert LossConfig.load(tmp_path / "configs" / "loss.json") == LossConfig()
     manifest = json.loads((tmp_path / "manifest.json").read_text())
     assert [c["file"] for c in manifest["configs"]] == ["configs/loss.json", "configs/loss-2.json"]
+
+
+def test_failure_reasons_by_name(tmp_path):
+    from tognet.data import FAILURE_CODES
+    from tognet.tasks.base import FailureReason
+
+    ep = synthetic_episodes(3, seed=2)
+    cols = _columns(ep)
+    with ShardWriter(tmp_path, "t", {}) as w:
+        w.add_batch(**{**cols, "failure": np.array(["none", "grasp_failed", "unstable"])})
+        w.add(**{**{k: v[0] for k, v in cols.items()}, "failure": FailureReason.TIMEOUT})
+        with pytest.raises(ValueError, match="unknown failure reason 'exploded'"):
+            w.add_batch(**{**cols, "failure": np.array(["none", "exploded", "none"])})
+    back = read_dataset(tmp_path, keep_invalid=True)
+    assert back.failure.tolist() == [0, 1, 7, 6]
+    assert json.loads((tmp_path / "manifest.json").read_text())["failure_codes"] == FAILURE_CODES
+    assert set(FAILURE_CODES) == {r.value for r in FailureReason}

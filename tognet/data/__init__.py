@@ -5,12 +5,14 @@
 """
 
 from tognet.data.episodes import (
+    FAILURE_CODES,
     FIELDS,
     FORMAT_VERSION,
     DatasetError,
     EpisodeArrays,
     ShardWriter,
     describe_dataset,
+    failure_code,
     read_dataset,
     read_shard,
     shard_paths,
@@ -18,12 +20,14 @@ from tognet.data.episodes import (
 )
 
 __all__ = [
+    "FAILURE_CODES",
     "FIELDS",
     "FORMAT_VERSION",
     "DatasetError",
     "EpisodeArrays",
     "ShardWriter",
     "describe_dataset",
+    "failure_code",
     "read_dataset",
     "read_shard",
     "shard_paths",

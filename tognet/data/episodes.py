@@ -54,6 +54,30 @@ FIELDS: dict[str, tuple[np.dtype, tuple[int, ...]]] = {
     "scene_seed": (np.dtype(np.int64), ()),
     "trial": (np.dtype(np.int32), ()),
 }
+#: int8 code of each failure reason (the names of ``tognet.tasks.FailureReason``); stored in every
+#: manifest so a dataset explains its own codes. ``failure`` may also be given as these names.
+FAILURE_CODES: dict[str, int] = {
+    "none": 0,
+    "grasp_failed": 1,
+    "dropped": 2,
+    "collision_before_motion": 3,
+    "missed": 4,
+    "task_failed": 5,
+    "timeout": 6,
+    "unstable": 7,
+}
+
+
+def failure_code(reason: object) -> int:
+    """The int8 code of a failure reason given by name (str or StrEnum) or already as an integer."""
+    if isinstance(reason, int | np.integer) and not isinstance(reason, bool):
+        return int(reason)
+    name = str(getattr(reason, "value", reason))
+    if name not in FAILURE_CODES:
+        raise ValueError(f"field 'failure': unknown failure reason {name!r}; known: {list(FAILURE_CODES)}")
+    return FAILURE_CODES[name]
+
+
 #: Fields a caller may leave out of :meth:`ShardWriter.add`, with their default value.
 DEFAULTS: dict[str, Any] = {"valid": 1, "failure": 0, "trial": 0}
 
@@ -125,6 +149,8 @@ def _check_column(name: str, value: Any, n: int | None) -> np.ndarray:
     """Convert one column to its declared dtype and check its shape; ValueError names the field."""
     dtype, shape = FIELDS[name]
     arr = np.asarray(value)
+    if name == "failure" and arr.dtype.kind in "UO":
+        arr = np.vectorize(failure_code, otypes=[np.int64])(arr) if arr.size else arr.astype(np.int64)
     if name == "object_id":
         if arr.dtype.kind not in "UO":
             raise ValueError(f"field 'object_id': expected strings, got dtype {arr.dtype}")
@@ -229,7 +255,8 @@ class ShardWriter:
         task = self.task
         manifest = _read_manifest(self.out_dir)
         if manifest is None:
-            manifest = {"format_version": FORMAT_VERSION, "task": task, "shards": [], "configs": []}
+            manifest = {"format_version": FORMAT_VERSION, "task": task, "failure_codes": FAILURE_CODES,
+                        "shards": [], "configs": []}
         elif manifest.get("task") != task:
             raise DatasetError(
                 f"{self.out_dir / MANIFEST}: holds task {manifest.get('task')!r}, refusing to add {task!r}"

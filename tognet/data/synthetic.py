@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from tognet.data.episodes import CROP_SIZE, EpisodeArrays, ShardWriter
+from tognet.data.episodes import CROP_SIZE, FAILURE_CODES, EpisodeArrays, ShardWriter
 
 TABLE = 0.03  # metres below the gripper depth
 BAR = -0.01  # metres: the bar's top surface is above the gripper depth
@@ -66,7 +66,9 @@ def synthetic_episodes(
         grasp_success=s_g,
         task_success=s_t,
         valid=valid,
-        failure=np.where(valid == 0, -1, np.where(s_g == 1, 0, 1)).astype(np.int8),
+        failure=np.where(valid == 0, FAILURE_CODES["unstable"], np.where(
+            s_g == 0, FAILURE_CODES["grasp_failed"], np.where(s_t == 0, FAILURE_CODES["task_failed"], 0))
+        ).astype(np.int8),
         object_id=np.array([f"bar-{i:04d}" for i in obj]),
         scene_seed=(seed * 1_000_003 + np.arange(n)).astype(np.int64),
         trial=np.arange(n, dtype=np.int32),
