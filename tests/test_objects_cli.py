@@ -91,3 +91,134 @@ def test_generate_with_a_config_file(tmp_path):
     result = runner.invoke(app, [*args, "--config", str(tmp_path / "bad.json")])
     assert result.exit_code == 2
     assert "unknown key 'primitve'" in result.output
+
+
+def _one_line_error(result, *needles: str) -> None:
+    assert result.exit_code == 2, result.output
+    assert result.exception is None or isinstance(result.exception, SystemExit), repr(result.exception)
+    assert "Traceback" not in result.output
+    lines = [line for line in result.output.splitlines() if line.startswith("error: ")]
+    assert len(lines) == 1, result.output
+    for needle in needles:
+        assert needle in lines[0], lines[0]
+
+
+@pytest.fixture(scope="module")
+def small_set(tmp_path_factory):
+    out = tmp_path_factory.mktemp("cli") / "set"
+    args = ["objects", "generate", "--kind", "primitive", "--count", "2", "--out", str(out)]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    return out
+
+
+BAD_CATALOGS = {
+    "truncated": ('{"catalog_version": 1, "objects": [', "not valid JSON"),
+    "list": ("[1, 2]", "expected a JSON object"),
+    "objects_not_list": ('{"catalog_version": 1, "objects": {}}', "'objects' must be a list"),
+    "entry_not_object": ('{"catalog_version": 1, "objects": [5]}', "object entry 0: expected a JSON object"),
+    "missing_fields": ('{"catalog_version": 1, "objects": [{"object_id": "a"}]}', "missing field(s) kind"),
+    "old_version": ('{"catalog_version": 0, "objects": []}', "catalog version 0"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_CATALOGS))
+@pytest.mark.parametrize("command", ["list", "sheet", "generate"])
+def test_a_corrupt_catalog_is_a_one_line_error_and_nothing_is_lost(small_set, tmp_path, case, command):
+    import shutil
+
+    text, needle = BAD_CATALOGS[case]
+    folder = tmp_path / "set"
+    shutil.copytree(small_set, folder)
+    (folder / "catalog.json").write_text(text)
+    before = {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+    args = {
+        "list": ["objects", "list", str(folder)],
+        "sheet": ["objects", "sheet", str(folder), "--out", str(tmp_path / "s.png")],
+        "generate": ["objects", "generate", "--kind", "primitive", "--count", "1", "--start", "5", "--out",
+                     str(folder)],
+    }[command]  # fmt: skip
+    _one_line_error(runner.invoke(app, args), "catalog.json", needle)
+    assert {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()} == before
+    assert not (tmp_path / "s.png").exists()
+
+
+def test_a_bad_field_names_the_object_and_field(small_set, tmp_path):
+    import json
+    import shutil
+
+    folder = tmp_path / "set"
+    shutil.copytree(small_set, folder)
+    payload = json.loads((folder / "catalog.json").read_text())
+    payload["objects"][1]["mass"] = "heavy"
+    (folder / "catalog.json").write_text(json.dumps(payload))
+    _one_line_error(runner.invoke(app, ["objects", "list", str(folder)]), "primitive-train-000001", "mass")
+    payload["objects"][1]["mass"] = 0.2
+    payload["objects"][0]["visual_mesh"] = "../../elsewhere.obj"
+    (folder / "catalog.json").write_text(json.dumps(payload))
+    _one_line_error(runner.invoke(app, ["objects", "list", str(folder)]), "plain name")
+
+
+@pytest.mark.parametrize("keep", [0, 60, 900])
+def test_a_truncated_mesh_names_the_file(small_set, tmp_path, keep):
+    import shutil
+
+    folder = tmp_path / "set"
+    shutil.copytree(small_set, folder)
+    visual = folder / "primitive-train-000001" / "visual.obj"
+    visual.write_bytes(visual.read_bytes()[:keep])
+    result = runner.invoke(app, ["objects", "sheet", str(folder), "--out", str(tmp_path / "s.png")])
+    _one_line_error(result, str(visual))
+
+
+def test_folders_that_are_not_sets(tmp_path):
+    (tmp_path / "afile").write_text("x")
+    _one_line_error(runner.invoke(app, ["objects", "list", str(tmp_path / "nope")]), "no such folder")
+    _one_line_error(runner.invoke(app, ["objects", "sheet", str(tmp_path)]), "no object catalog")
+    _one_line_error(runner.invoke(app, ["objects", "list", str(tmp_path / "afile")]), "is a file")
+    gen = ["objects", "generate", "--kind", "primitive", "--count", "1", "--out", str(tmp_path / "afile")]
+    _one_line_error(runner.invoke(app, gen), "is a file")
+    imp = ["objects", "import", str(tmp_path), "--out", str(tmp_path / "afile")]
+    (tmp_path / "bar.stl").write_bytes(b"")
+    _one_line_error(runner.invoke(app, imp), "is a file")
+    assert (tmp_path / "afile").read_text() == "x"
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [
+        (["--kind", "primitive", "--count", "0"], "--count"),
+        (["--kind", "primitive", "--count", "-3"], "--count"),
+        (["--kind", "primitive", "--count", "1", "--start", "-1"], "--start"),
+        (["--kind", "hammer", "--count", "1"], "--kind"),
+        (["--kind", "primitive", "--count", "1", "--split", "val"], "--split"),
+    ],
+)
+def test_bad_option_values_are_usage_errors(tmp_path, args, needle):
+    result = runner.invoke(app, ["objects", "generate", *args, "--out", str(tmp_path / "set")])
+    assert result.exit_code == 2, result.output
+    assert needle in result.output
+    assert not (tmp_path / "set").exists()
+
+
+def test_realistic_train_is_refused_before_any_work(tmp_path):
+    args = ["objects", "generate", "--kind", "realistic", "--count", "1", "--out", str(tmp_path / "r")]
+    result = runner.invoke(app, args)
+    _one_line_error(result, "test set only")
+    assert "0/1" not in result.output  # refused before the progress bar starts
+    assert not (tmp_path / "r").exists()
+
+
+def test_another_config_into_an_existing_set_keeps_it(small_set, tmp_path):
+    import shutil
+
+    from tognet.objects import GeneratorConfig
+    from tognet.objects.primitive import PrimitiveConfig
+
+    folder = tmp_path / "set"
+    shutil.copytree(small_set, folder)
+    before = {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+    cfg = GeneratorConfig(primitive=PrimitiveConfig(cylinder_sections=12)).save(tmp_path / "c.json")
+    args = ["objects", "generate", "--kind", "primitive", "--count", "1", "--start=2", "--config", str(cfg)]
+    _one_line_error(runner.invoke(app, [*args, "--out", str(folder)]), "different generator config")
+    assert {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()} == before

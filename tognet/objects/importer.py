@@ -32,7 +32,7 @@ from tqdm import tqdm
 from tognet.errors import TognetError
 from tognet.objects.assemble import assemble_object
 from tognet.objects.decompose import DecomposeConfig, decompose
-from tognet.objects.record import CATALOG_NAME, ObjectRecord, load_catalog, write_catalog
+from tognet.objects.record import CATALOG_NAME, ObjectRecord, load_catalog, load_meta, write_catalog
 
 MESH_SUFFIXES = (".obj", ".stl", ".ply")
 MIN_SIZE = 0.01
@@ -65,7 +65,9 @@ def load_checked(
     try:
         loaded = trimesh.load(path, force="mesh", process=False)
     except Exception as exc:  # trimesh raises many kinds of errors on broken files
-        raise ImportMeshError(f"{path}: unreadable ({type(exc).__name__}: {exc})") from None
+        raise ImportMeshError(
+            f"{path}: unreadable, damaged or truncated? ({type(exc).__name__}: {str(exc).strip()})"
+        ) from None
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0 or len(loaded.vertices) == 0:
         raise ImportMeshError(f"{path}: empty (no triangles)")
     mesh = trimesh.Trimesh(np.asarray(loaded.vertices, dtype=np.float64) * scale, loaded.faces, process=True)
@@ -123,7 +125,10 @@ def import_meshes(
     if not files:
         raise FileNotFoundError(f"no {'/'.join(s[1:].upper() for s in MESH_SUFFIXES)} files in {src_dir}")
     config = decompose_config or DecomposeConfig()
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out} is a file, not a folder")
     existing = {r.object_id: r for r in load_catalog(out)} if (out / CATALOG_NAME).is_file() else {}
+    meta = load_meta(out)
     report = ImportReport()
     staging = out / ".importing"
     seen: dict[str, Path] = {}
@@ -178,7 +183,6 @@ def import_meshes(
         report.records.append(record)
     shutil.rmtree(staging, ignore_errors=True)
     if report.records:
-        report.catalog = write_catalog(
-            out, list(existing.values()), meta={"kinds": sorted({r.kind for r in existing.values()})}
-        )
+        meta["kinds"] = sorted({r.kind for r in existing.values()})
+        report.catalog = write_catalog(out, list(existing.values()), meta=meta)
     return report

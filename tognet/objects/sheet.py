@@ -60,7 +60,7 @@ def write_contact_sheet(set_dir: Path, out_png: Path, max_objects: int = 24) -> 
     records = sorted(load_catalog(set_dir), key=lambda r: r.object_id)[: max(1, max_objects)]
     if not records:
         raise ValueError(f"{set_dir}: the catalog lists no objects")
-    meshes = [trimesh.load(r.path(r.visual_mesh), force="mesh", process=False) for r in records]
+    meshes: list[trimesh.Trimesh] = [r.load_mesh(r.visual_mesh) for r in records]
     half_xy = max(float(np.max(np.abs(m.vertices[:, :2]))) for m in meshes) * 1.05
     half_z = max(float(np.max(np.abs(m.vertices[:, 2]))) for m in meshes) * 1.2
     cols = min(6, len(records))
