@@ -195,3 +195,53 @@ def test_a_set_made_with_another_config_is_refused(tmp_path):
     with pytest.raises(ValueError, match="different generator config"):
         generate_set("primitive", "train", 1, tmp_path, start=1, config=other)
     assert [r.object_id for r in load_catalog(tmp_path)] == ["primitive-train-000000"]
+
+
+def test_catalog_csv_matches_the_json_catalog(sets):
+    import csv
+
+    for _kind, (folder, _records) in sets.items():
+        rows = list(csv.DictReader((folder / "catalog.csv").open()))
+        loaded = load_catalog(folder)
+        assert [row["id"] for row in rows] == [r.object_id for r in loaded]
+        for row, record in zip(rows, loaded, strict=True):
+            assert row["kind"] == record.kind and row["split"] == record.split
+            assert row["shape_rule"] == record.shape_rule
+            assert row["part_types"].split("+") == record.part_types
+            assert float(row["mass"]) == pytest.approx(record.mass, rel=1e-5)
+            assert float(row["density"]) == pytest.approx(record.density, rel=1e-5)
+            assert float(row["friction"]) == pytest.approx(record.friction, rel=1e-5)
+            extents = [float(row[f"extent_{a}"]) for a in "xyz"]
+            com = [float(row[f"com_{a}"]) for a in "xyz"]
+            assert extents == pytest.approx(record.extents, rel=1e-5)
+            assert com == pytest.approx(record.com, rel=1e-5, abs=1e-9)
+            assert int(row["pieces"]) == len(record.collision_meshes)
+
+
+def test_density_is_drawn_inside_both_ranges_without_a_mass_pile_up():
+    from tognet.objects.compose import ShapeRanges, sample_density
+
+    ranges = ShapeRanges()
+    rng = np.random.default_rng(0)
+    # A light tool (40 cm^3): the lightest densities would weigh under 80 g.
+    masses = np.array([sample_density(rng, ranges, 40e-6) * 40e-6 for _ in range(2000)])
+    densities = masses / 40e-6
+    assert densities.min() >= ranges.density[0] and densities.max() <= ranges.density[1]
+    assert masses.min() >= ranges.mass[0] - 1e-12 and masses.max() <= ranges.mass[1] + 1e-12
+    assert np.mean(np.isclose(masses, ranges.mass[0], rtol=1e-9)) < 0.002  # no point mass at 80 g
+    assert 0.05 < np.mean(masses < ranges.mass[0] + 0.002) < 0.15  # uniform over 80-100 g: ~10 % in 2 g
+    # Too small for any density in the range to reach 80 g: the densest material, not a made-up one.
+    assert sample_density(rng, ranges, 10e-6) == ranges.density[1]
+    assert sample_density(rng, ranges, 5e-3) == ranges.density[0]
+
+
+def test_a_set_from_another_generator_version_is_refused(tmp_path):
+    generate_set("primitive", "train", 1, tmp_path)
+    catalog = tmp_path / "catalog.json"
+    payload = json.loads(catalog.read_text())
+    assert payload["meta"]["generator_version"] >= 2
+    payload["meta"].pop("generator_version")  # a set from version 1, which did not record it
+    catalog.write_text(json.dumps(payload))
+    with pytest.raises(ValueError, match="generator version 1"):
+        generate_set("primitive", "train", 1, tmp_path, start=1)
+    assert [r.object_id for r in load_catalog(tmp_path)] == ["primitive-train-000000"]

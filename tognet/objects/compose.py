@@ -50,7 +50,7 @@ class ShapeRanges(Config):
         (300.0, 2500.0), "Density range (kg/m^3), uniform: wood and plastics to light metal alloys."
     )
     mass: tuple[float, float] = doc(
-        (0.08, 1.2), "Mass range (kg): a density giving a mass outside is clamped to the range's ends."
+        (0.08, 1.2), "Mass range (kg): densities are drawn from the part of their range giving such masses."
     )
     friction: tuple[float, float] = doc((0.5, 1.2), "Sliding friction coefficient range, uniform.")
     rule_weights: tuple[float, float, float] = doc((1.0, 1.0, 1.0), "Relative frequency of rules T, L, X.")
@@ -180,6 +180,18 @@ def compose(
 
 
 def sample_density(rng: np.random.Generator, ranges: ShapeRanges, volume: float) -> float:
-    """A density from the range, clamped so that the mass stays in ``ranges.mass``."""
-    density = _u(rng, ranges.density)
-    return float(np.clip(density, ranges.mass[0] / volume, ranges.mass[1] / volume))
+    """A density, uniform over the part of ``ranges.density`` that keeps the mass in ``ranges.mass``.
+
+    Drawing from the feasible interval (rather than drawing from the whole range and clamping the mass)
+    keeps both density and mass inside their ranges without piling objects up at a mass bound. If no
+    density in the range gives a mass in the range (a very small or very large object), the density
+    nearest to the mass range is used: the material stays plausible and the mass misses its range.
+    """
+    if not volume > 0:
+        raise MeshError(f"cannot choose a density for a volume of {volume}")
+    lo = max(ranges.density[0], ranges.mass[0] / volume)
+    hi = min(ranges.density[1], ranges.mass[1] / volume)
+    u = float(rng.uniform(0.0, 1.0))
+    if lo <= hi:
+        return lo + u * (hi - lo)
+    return float(ranges.density[1] if ranges.mass[0] / volume > ranges.density[1] else ranges.density[0])

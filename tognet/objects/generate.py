@@ -7,6 +7,8 @@
 - ``generate_set`` writes the objects, ``catalog.json`` and ``generator_config.json`` (the
   :class:`GeneratorConfig` used) into one folder. Objects already in the folder's catalog are kept:
   generating indices that exist again rewrites them identically.
+- ``GENERATOR_VERSION`` (saved in the catalog's meta) changes whenever the same (kind, split, index)
+  and config would give different files; adding objects to a set made by another version is refused.
 - The realistic set is a fixed list of models (``tognet.objects.realistic``); it is a test set only
   (the paper never trains on it), index i is model i, and asking for more objects than there are
   models is an error that names the limit (the models have real-world sizes, so they are not rescaled).
@@ -32,12 +34,14 @@ from tognet.objects.assemble import MeshError, assemble_object
 from tognet.objects.complex import ComplexConfig, make_complex
 from tognet.objects.compose import sample_density
 from tognet.objects.primitive import PrimitiveConfig, make_primitive
-from tognet.objects.record import CATALOG_NAME, SPLITS, ObjectRecord, load_catalog, write_catalog
+from tognet.objects.record import CATALOG_NAME, SPLITS, ObjectRecord, load_catalog, load_meta, write_catalog
 
 GENERATED_KINDS = ("primitive", "complex", "realistic")
 CONFIG_NAME = "generator_config.json"
 SEED_NAMESPACE = "tognet/objects/v1"
 MAX_ATTEMPTS = 8
+#: 1: first release; 2: density drawn from the feasible interval (no mass clamp).
+GENERATOR_VERSION = 2
 
 
 @dataclass(frozen=True)
@@ -187,6 +191,8 @@ def generate_set(
     _check(kind, split, start)
     if count < 1:
         raise ValueError(f"count must be >= 1, got {count}")
+    if kind == "realistic" and split != "test":
+        raise ValueError("the realistic set is a test set only: use --split test")
     if kind == "realistic" and start + count > realistic_count():
         raise ValueError(
             f"asked for realistic objects {start}..{start + count - 1} but there are only "
@@ -195,12 +201,22 @@ def generate_set(
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
     out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out} is a file, not a folder")
     config = config or GeneratorConfig()
     if (out / CONFIG_NAME).is_file() and GeneratorConfig.load(out / CONFIG_NAME) != config:
         raise ValueError(
             f"{out} holds objects made with a different generator config ({out / CONFIG_NAME}); "
             "use another folder"
         )
+    meta = load_meta(out)
+    if (out / CATALOG_NAME).is_file() and (out / CONFIG_NAME).is_file():
+        version = meta.get("generator_version", 1)
+        if version != GENERATOR_VERSION:
+            raise ValueError(
+                f"{out} holds objects made by generator version {version}, this is version "
+                f"{GENERATOR_VERSION} (same ids would differ); use another folder"
+            )
     existing = {r.object_id: r for r in _existing(out)}
     records: list[ObjectRecord] = []
     indices = range(start, start + count)
@@ -220,7 +236,9 @@ def generate_set(
         if records:
             config.save(out / CONFIG_NAME)
             kinds = sorted({r.kind for r in existing.values()})
-            meta = {"kinds": kinds, "generator_config": CONFIG_NAME}
+            meta.update(
+                {"kinds": kinds, "generator_config": CONFIG_NAME, "generator_version": GENERATOR_VERSION}
+            )
             write_catalog(out, list(existing.values()), meta=meta)
     return records
 
