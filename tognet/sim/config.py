@@ -43,6 +43,11 @@ class WorldConfig(Config):
     table_size: tuple[float, float] = doc((1.22, 0.76), "Table top size (m) along x and y (48 x 30 in).")
     table_height: float = doc(0.75, "Height of the table top above the ground (m); the top is at z = 0.")
     table_friction: float = doc(0.5, "Sliding friction of the table top and the ground.")
+    table_solref: tuple[float, float] = doc(
+        (0.005, 1.0),
+        "Contact solref of the table, the ground and the object's pieces (time constant s, damping "
+        "ratio): stiff, so a tool pressed down by the arm does not sink into the table.",
+    )
     drop_x: tuple[float, float] = doc(
         (-0.45, -0.16), "Range of the object's drop x (m), grasping half (x < 0)."
     )

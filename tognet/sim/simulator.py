@@ -545,6 +545,9 @@ class Simulator:
         # Turn the wrist the short way round to the start yaw.
         cur_yaw = float(d.act[3])
         start_yaw = cur_yaw + (start_yaw - cur_yaw + np.pi) % (2 * np.pi) - np.pi
+        if start[2] < min_z:  # the arm does not drive the fingertips into the table
+            info["start_z_clamped"] = float(start[2])
+            start[2] = min_z
         info["start_pose"] = [*map(float, start), float(start_yaw)]
         high = start[2] + g.start_clearance
         hit_before = [False]

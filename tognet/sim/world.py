@@ -42,6 +42,7 @@ def _object_xml(config: SimConfig, obj: ObjectRecord) -> tuple[list[str], list[s
     ]
     body += [
         f'  <geom name="piece_{i:02d}" type="mesh" mesh="piece_{i:02d}" friction="{friction}" condim="3" '
+        f'solref="{w.table_solref[0]:g} {w.table_solref[1]:g}" '
         f'priority="1" group="{GROUP_OBJECT_COLLISION}" rgba="0.8 0.5 0.2 1"/>'
         for i in range(len(obj.collision_paths))
     ]
@@ -168,6 +169,7 @@ def world_xml(config: SimConfig, obj: ObjectRecord, task: str) -> str:
     lx, ly = 0.5 * w.table_size[0], 0.5 * w.table_size[1]
     h = w.table_height
     assets, obj_body = _object_xml(config, obj)
+    stiff = f'solref="{w.table_solref[0]:g} {w.table_solref[1]:g}"'
     grip_body, actuators = _gripper_xml(config)
     legs = [
         f'<geom type="box" size="0.03 0.03 {0.5 * h:.4f}" pos="{sx * (lx - 0.05):.4f} {sy * (ly - 0.05):.4f} '
@@ -193,9 +195,9 @@ def world_xml(config: SimConfig, obj: ObjectRecord, task: str) -> str:
         "  <worldbody>",
         '    <light pos="0 -0.6 2.0" dir="0 0.3 -1" diffuse="0.8 0.8 0.8"/>',
         f'    <geom name="ground" type="plane" size="4 4 0.1" pos="0 0 {-h:g}" material="floor" '
-        f'friction="{w.table_friction:g} 0.005 0.0001" group="{GROUP_STATIC}"/>',
+        f'friction="{w.table_friction:g} 0.005 0.0001" group="{GROUP_STATIC}" {stiff}/>',
         f'    <geom name="table" type="box" size="{lx:g} {ly:g} 0.02" pos="0 0 -0.02" '
-        f'friction="{w.table_friction:g} 0.005 0.0001" group="{GROUP_STATIC}" rgba="0.6 0.5 0.4 1"/>',
+        f'friction="{w.table_friction:g} 0.005 0.0001" group="{GROUP_STATIC}" {stiff} rgba="0.6 0.5 0.4 1"/>',
         *[f"    {leg}" for leg in legs],
         *[f"    {line}" for line in obj_body],
         *[f"    {line}" for line in grip_body],

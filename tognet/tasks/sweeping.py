@@ -44,7 +44,7 @@ class SweepingConfig(Config):
     )
     stroke: float = doc(0.4, "Length of the straight sweep along world +y (m), as in the paper.")
     sweep_speed: float = doc(0.6, "Gripper speed during the sweep (m/s).")
-    settle_time: float = doc(0.6, "Time allowed after the stroke for the cans to fall (s).")
+    settle_time: float = doc(1.0, "Time allowed after the stroke for the cans to fall (s); ends early.")
     nominal_offset: tuple[float, float, float] = doc(
         (0.0, -0.15, -0.03), "Gripper start position minus the reference point at a = 0 (m)."
     )
