@@ -14,9 +14,10 @@
 4. Distinct candidates: one pair per cell of (centre pixel / separation, jaw-axis angle / bin), cells
    taken in random order.
 5. Grasp height: the highest surface between the contacts (world heights from the depth image) minus
-   a sampled offset, never lower than the table plus a finger clearance. A scan of the jaw line at that
+   a sampled offset, never lower than the table plus a finger clearance. A scan of the jaw axis at that
    height finds where the jaws really touch (the grasp centre is their midpoint, the width their
-   distance) and drops grasps that do not fit the opening or whose fingers would land on something.
+   distance); grasps that do not fit the opening, or whose fully open fingers would land on
+   something, are dropped.
 """
 
 from __future__ import annotations
@@ -52,14 +53,14 @@ class AntipodalConfig(Config):
         "near corners the normal is undefined.",
     )
     min_quality: float = doc(
-        0.05,
+        0.1,
         "Pairs with an antipodality score below this are dropped: right at the friction-cone boundary a "
         "few degrees of normal error decide, so such pairs are not reliably antipodal.",
     )
     max_edge_pixels: int = doc(1500, "Edge pixels kept (random subset) before pairing, to bound the cost.")
     max_candidates: int = doc(200, "Maximum number of distinct candidates returned.")
     min_pixel_separation: float = doc(
-        4.0,
+        2.0,
         "Cell size (pixels) of grasp centres for distinctness: at most one candidate per cell and angle bin.",
     )
     angle_bin: float = doc(np.pi / 16, "Angle bin (rad) of the jaw axis (mod pi) for distinctness.")
@@ -71,16 +72,20 @@ class AntipodalConfig(Config):
     )
     table_z: float = doc(0.0, "World z of the table top (m).")
     finger_clearance: float = doc(
-        0.01, "The gripper centre never goes lower than table_z + finger_clearance (m)."
+        0.018,
+        "The gripper centre never goes lower than table_z + finger_clearance (m); 0.018 = half the "
+        "simulated 3 cm pad height + 3 mm, the lowest centre the simulator executes without clamping.",
     )
     min_object_height: float = doc(
         0.005, "The top surface between the contacts must rise this much (m) above the table."
     )
     collision_check: bool = doc(
-        True, "Scan the jaw line: refine contacts, drop grasps too wide or whose fingers land on something."
+        True,
+        "Scan the jaw axis for the true contacts; drop grasps whose open fingers would land on something.",
     )
     finger_width: float = doc(
-        0.02, "Width (m) of the finger pads across the jaw axis, for the collision scan."
+        0.04,
+        "Width (m) of the finger pads across the jaw axis (the simulated pads'), for the collision scan.",
     )
     scan_step: float = doc(0.002, "Sample spacing (m) of the collision / contact scan along the jaw axis.")
     occupancy_tolerance: float = doc(
@@ -91,8 +96,10 @@ class AntipodalConfig(Config):
         "How far (m) the scanned contacts may lie from the edge-pixel contacts before the pair is dropped.",
     )
     finger_offset: float = doc(
-        0.01,
-        "Space (m) each finger needs outside its contact along the jaw axis (free above the centre).",
+        0.01, "Thickness (m) of a finger pad along the jaw axis plus a margin, for the landing-zone check."
+    )
+    pad_height: float = doc(
+        0.03, "Height (m) of the finger pads; their bottom is pad_height / 2 below the centre."
     )
     axis_direction: Literal["random", "canonical"] = doc(
         "random",
@@ -113,8 +120,8 @@ class GraspCandidates:
         z_depth: (N,) camera-frame depth of the grasp centre (the network's gripper-depth input).
         pixels: (N, 2) pixel (u, v) of the grasp centre.
         widths: (N,) contact distance (m): the object's extent along the jaw axis above the gripper
-            centre (the edge-contact distance when ``collision_check`` is off). The opening check also
-            covers the pads' width, so a slanted grasp may need a little more than this.
+            centre (the edge-contact distance when ``collision_check`` is off). The fingers come down
+            fully open, so the landing-zone check, not this width, decides whether a grasp fits.
         quality: (N,) antipodality score in [0, 1]: 1 when both normals lie on the jaw axis, 0 at the
             friction-cone boundary (min over the two contacts).
         contacts: (N, 2, 3) world contact points (xy where the jaws touch, z of the top rim).
@@ -329,6 +336,27 @@ def sample_antipodal(
     return GraspCandidates(grasps, zc, uv, width, quality[sel], contacts)
 
 
+def _occupied(scene: DepthScene, points_xy: NDArray, heights: NDArray, tolerance: float) -> NDArray[np.bool_]:
+    """Whether world points (..., 2) at ``heights`` (broadcast to the same leading shape) are occupied.
+
+    A point is occupied when the surface the camera sees along its ray is nearer than the point itself:
+    the point is inside something or hidden behind it (unknown space counts as occupied).
+    """
+    cam = scene.camera
+    cam_from_world = cam.camera_from_world
+    rot, trans = cam_from_world[:3, :3].astype(np.float32), cam_from_world[:3, 3].astype(np.float32)
+    k = cam.intrinsics
+    xy = points_xy.astype(np.float32)
+    hz = np.broadcast_to(np.asarray(heights, dtype=np.float32), xy.shape[:-1])
+    pc = [xy[..., 0] * rot[r, 0] + xy[..., 1] * rot[r, 1] + hz * rot[r, 2] + trans[r] for r in range(3)]
+    inv = 1.0 / np.maximum(pc[2], np.float32(1e-6))
+    filled = scene.filled
+    hgt, wid = filled.shape
+    ui = np.clip((pc[0] * inv * np.float32(k.fx) + np.float32(k.cx + 0.5)).astype(np.intp), 0, wid - 1)
+    vi = np.clip((pc[1] * inv * np.float32(k.fy) + np.float32(k.cy + 0.5)).astype(np.intp), 0, hgt - 1)
+    return filled[vi, ui] < pc[2] - np.float32(tolerance)
+
+
 def _finalize(
     scene: DepthScene,
     pa: NDArray,
@@ -337,17 +365,21 @@ def _finalize(
     config: AntipodalConfig,
     rng: np.random.Generator,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
-    """Grasp heights, refined contact points (N, 2, 2) and validity for edge-contact pairs.
+    """Grasp heights, refined contact points (N, 2, 2), widths and validity for edge-contact pairs.
 
     The gripper centre goes ``offset`` below the highest surface between the edge contacts (never
-    below table + clearance). With ``collision_check``, the jaw line (and two lines at the pad's
-    edges) is scanned at that height: the object's extent above the gripper centre along the jaw
-    axis gives the true contacts (an edge pixel on a curved side lies inside the silhouette); the
-    pair is dropped if that extent exceeds the opening, if the contacts moved more than
-    ``max_contact_shift`` (another object joined in), or if a finger's landing zone is occupied.
+    below table + clearance). With ``collision_check``:
+
+    - the jaw axis is scanned at that height: where the object stops along it are the true contacts
+      (an edge pixel on a curved side lies inside the silhouette), their midpoint the grasp centre;
+      the pair is dropped if they moved more than ``max_contact_shift`` (another object joined in) or
+      are farther apart than the opening;
+    - the fingers come down fully open (as the simulated gripper does): each pad's footprint
+      (``finger_offset`` thick, ``finger_width`` wide, centred ``max_width / 2`` from the grasp centre)
+      must be free down to the pad's bottom (``pad_height / 2`` below the centre).
     """
-    cam = scene.camera
     n = pa.shape[0]
+    cam = scene.camera
     # Highest surface on the segment between the contacts (9 samples, ends included).
     t = np.linspace(0.0, 1.0, 9)
     seg = pa[:, None, :2] + t[None, :, None] * (pb - pa)[:, None, :2]
@@ -365,58 +397,35 @@ def _finalize(
     half = 0.5 * np.linalg.norm(pb[:, :2] - pa[:, :2], axis=1)
     centre = 0.5 * (pa[:, :2] + pb[:, :2])
     step = config.scan_step
-    reach = config.max_width / 2 + config.max_contact_shift + config.finger_offset
+    tol = config.occupancy_tolerance
+
+    # 1. Contacts: the object's extent along the jaw axis at the gripper-centre height.
+    reach = config.max_width / 2 + config.max_contact_shift
     s = np.arange(-reach, reach + 0.5 * step, step)
-    normal = np.column_stack([-axis[:, 1], axis[:, 0]])
-    lines = np.array([-0.5, 0.0, 0.5]) * config.finger_width
-    # A scan point (x, y, h) is occupied when the surface the camera sees along its ray is nearer than
-    # the point itself (the point is inside something, or hidden behind it: unknown space counts as
-    # occupied). Checked at the gripper-centre height (also catches anything higher, whose image covers
-    # the point's ray, except thin overhangs seen edge-on). Each scan line is straight, so its camera
-    # coordinates are affine in s: P_cam(s) = O_cam + s * D_cam.
-    cam_from_world = cam.camera_from_world
-    rot = cam_from_world[:3, :3]
-    k = cam.intrinsics
-    filled = scene.filled
-    hgt, wid = filled.shape
-    d_cam = (np.column_stack([axis, np.zeros(n)]) @ rot.T).astype(np.float32)  # (N, 3)
-    s32 = s.astype(np.float32)
-    above3 = np.zeros((n, lines.size, s.size), dtype=bool)
-    tol = np.float32(config.occupancy_tolerance)
-    for hz in (z,):
-        origins = (
-            np.concatenate([centre, hz[:, None]], axis=1)[:, None, :]
-            + lines[None, :, None] * np.column_stack([normal, np.zeros(n)])[:, None, :]
-        )  # (N, L, 3)
-        o_cam = (origins @ rot.T + cam_from_world[:3, 3]).astype(np.float32)
-        pc = o_cam[:, :, None, :] + s32[None, None, :, None] * d_cam[:, None, None, :]  # (N, L, K, 3)
-        inv = 1.0 / np.maximum(pc[..., 2], np.float32(1e-6))
-        ui = np.clip(
-            (pc[..., 0] * inv * np.float32(k.fx) + np.float32(k.cx + 0.5)).astype(np.intp), 0, wid - 1
-        )
-        vi = np.clip(
-            (pc[..., 1] * inv * np.float32(k.fy) + np.float32(k.cy + 0.5)).astype(np.intp), 0, hgt - 1
-        )
-        above3 |= filled[vi, ui] < pc[..., 2] - tol
-    inner = np.abs(s)[None, :] <= (half + config.max_contact_shift)[:, None]
-    ns = s.size
-
-    def extent(mask: NDArray[np.bool_]) -> tuple[NDArray, NDArray, NDArray]:
-        run = mask & inner
-        lo = s[np.argmax(run, axis=1)] - 0.5 * step
-        hi = s[ns - 1 - np.argmax(run[:, ::-1], axis=1)] + 0.5 * step
-        return lo, hi, run.any(axis=1)
-
-    lo, hi, has = extent(above3[:, 1])  # contacts: on the jaw axis itself
-    above = above3.any(axis=1)  # the whole pad width: what the opening must clear
-    lo_u, hi_u, _ = extent(above)
-    zone_lo = (s[None, :] < lo_u[:, None]) & (s[None, :] >= (lo_u - config.finger_offset)[:, None])
-    zone_hi = (s[None, :] > hi_u[:, None]) & (s[None, :] <= (hi_u + config.finger_offset)[:, None])
-    blocked = (above & (zone_lo | zone_hi)).any(axis=1)
-    mid = 0.5 * (lo + hi)
-    opening = 2 * np.maximum(hi_u - mid, mid - lo_u)  # the jaws close symmetrically about the centre
+    line = centre[:, None, :] + s[None, :, None] * axis[:, None, :]  # (N, K, 2)
+    above = _occupied(scene, line, z[:, None], tol)
+    run = above & (np.abs(s)[None, :] <= (half + config.max_contact_shift)[:, None])
+    has = run.any(axis=1)
+    lo = s[np.argmax(run, axis=1)] - 0.5 * step
+    hi = s[s.size - 1 - np.argmax(run[:, ::-1], axis=1)] + 0.5 * step
     width = hi - lo
-    ok &= has & ~blocked & (opening <= config.max_width) & (width >= config.min_width)
+    ok &= has & (width <= config.max_width) & (width >= config.min_width)
     ok &= (lo <= -half + config.max_contact_shift) & (hi >= half - config.max_contact_shift)
+    mid = 0.5 * (lo + hi)
+    grasp_xy = centre + mid[:, None] * axis
+
+    # 2. Landing zones of the fully open fingers, checked at the pads' bottom.
+    normal = np.column_stack([-axis[:, 1], axis[:, 0]])
+    across = np.linspace(-0.5, 0.5, 3) * config.finger_width
+    along = config.max_width / 2 + np.linspace(0.0, config.finger_offset, 4)
+    along = np.concatenate([-along, along])
+    zone = (
+        grasp_xy[:, None, None, :]
+        + along[None, :, None, None] * axis[:, None, None, :]
+        + across[None, None, :, None] * normal[:, None, None, :]
+    )  # (N, 8, 3, 2)
+    bottom = np.maximum(z - config.pad_height / 2, config.table_z + 0.5 * tol)
+    ok &= ~_occupied(scene, zone, bottom[:, None, None], tol).any(axis=(1, 2))
+
     refined = np.stack([centre + lo[:, None] * axis, centre + hi[:, None] * axis], axis=1)
     return z, refined, width, ok

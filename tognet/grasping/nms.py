@@ -28,9 +28,9 @@ class NMSConfig(Config):
     """Distance used to suppress grasps near a better one."""
 
     radius: float = doc(
-        0.0225,
-        "Minimum distance (m, in the scaled grasp space) between kept grasps (12-27 modes measured on "
-        "synthetic T, L, bar and rod tools of 15-35 cm).",
+        0.02,
+        "Minimum distance (m, in the scaled grasp space) between kept grasps (6-29 modes, medians 14-20, "
+        "measured on synthetic T, L, bar and rod tools of 15-35 cm).",
     )
     angle_scale: float = doc(
         0.03, "Metres per radian of jaw-axis angle difference (0.03: a 60 degree turn counts like 3.1 cm)."
