@@ -88,6 +88,9 @@ class AntipodalConfig(Config):
         "Width (m) of the finger pads across the jaw axis (the simulated pads'), for the collision scan.",
     )
     scan_step: float = doc(0.002, "Sample spacing (m) of the collision / contact scan along the jaw axis.")
+    scan_depth: float = doc(
+        0.005, "The contact scan runs at least this far (m) below the top surface (or at the grasp height)."
+    )
     occupancy_tolerance: float = doc(
         0.002, "A scan point counts as occupied when the seen surface is this much (m) nearer than it."
     )
@@ -399,11 +402,13 @@ def _finalize(
     step = config.scan_step
     tol = config.occupancy_tolerance
 
-    # 1. Contacts: the object's extent along the jaw axis at the gripper-centre height.
+    # 1. Contacts: the object's extent along the jaw axis at the gripper-centre height (at least
+    #    ``scan_depth`` below the top, so that a centre lifted to the clearance floor still finds it).
     reach = config.max_width / 2 + config.max_contact_shift
     s = np.arange(-reach, reach + 0.5 * step, step)
     line = centre[:, None, :] + s[None, :, None] * axis[:, None, :]  # (N, K, 2)
-    above = _occupied(scene, line, z[:, None], tol)
+    h_scan = np.maximum(np.minimum(z, top - config.scan_depth), config.table_z + 2 * tol)
+    above = _occupied(scene, line, h_scan[:, None], tol)
     run = above & (np.abs(s)[None, :] <= (half + config.max_contact_shift)[:, None])
     has = run.any(axis=1)
     lo = s[np.argmax(run, axis=1)] - 0.5 * step
