@@ -183,7 +183,7 @@ def world_xml(config: SimConfig, obj: ObjectRecord, task: str) -> str:
         f'  <option timestep="{p.timestep:g}" integrator="{p.integrator}" cone="elliptic" '
         f'impratio="{p.impratio:g}" iterations="{p.iterations}" noslip_iterations="{p.noslip_iterations}" '
         f'gravity="0 0 {-p.gravity:g}">',
-        '    <flag autoreset="disable"/>',
+        f'    <flag autoreset="disable" sleep="{"enable" if p.sleep else "disable"}"/>',
         "  </option>",
         '  <visual><global offwidth="640" offheight="480"/><quality shadowsize="1024"/></visual>',
         "  <asset>",
