@@ -245,3 +245,42 @@ def test_a_set_from_another_generator_version_is_refused(tmp_path):
     with pytest.raises(ValueError, match="generator version 1"):
         generate_set("primitive", "train", 1, tmp_path, start=1)
     assert [r.object_id for r in load_catalog(tmp_path)] == ["primitive-train-000000"]
+
+
+def _support(mesh: trimesh.Trimesh, tol: float = 1e-4):
+    from shapely.geometry import MultiPoint
+
+    v = np.asarray(mesh.vertices)
+    bottom = v[v[:, 2] < v[:, 2].min() + tol]
+    return MultiPoint([tuple(p) for p in bottom[:, :2]]).convex_hull
+
+
+def test_flat_bottom_cuts_a_flat_face_and_keeps_the_part_convex():
+    from tognet.objects.complex import flat_bottom
+
+    ball = trimesh.creation.icosphere(subdivisions=4, radius=0.02)
+    cut = flat_bottom(ball, 0.15, max_vertices=100_000)
+    assert cut.is_convex and cut.is_volume
+    assert cut.bounds[0, 2] == pytest.approx(-0.02 + 0.15 * 0.04, abs=1e-9)
+    # A plane 0.3 r above the sphere's bottom cuts a disc of radius r * sqrt(1 - 0.7^2).
+    expected = np.pi * 0.02**2 * (1 - 0.7**2)
+    assert _support(cut).area == pytest.approx(expected, rel=0.03)
+    assert _support(ball).area < 0.05 * expected  # the sphere itself rests on a point
+    assert flat_bottom(ball, 0.0) is ball
+    capped = flat_bottom(ball, 0.15, max_vertices=48)
+    assert len(capped.vertices) <= 48 and capped.is_convex
+    assert _support(capped).area > 0.5 * expected
+
+
+def test_complex_objects_rest_on_flat_faces(sets):
+    from shapely.geometry import Point
+
+    for record in _records(sets, "complex"):
+        pieces = [trimesh.load(p, force="mesh") for p in record.collision_paths]
+        lowest = min(p.bounds[0, 2] for p in pieces)
+        for piece in pieces:
+            assert piece.bounds[0, 2] == pytest.approx(lowest, abs=1e-5)  # both parts touch the table
+            assert _support(piece).area > 1e-4, f"{record.object_id}: a part rests on less than 1 cm^2"
+        visual = trimesh.load(record.path(record.visual_mesh), force="mesh")
+        margin = _support(visual, 1e-4).buffer(-0.003)
+        assert margin.contains(Point(record.com[0], record.com[1])), f"{record.object_id} would tip over"

@@ -9,7 +9,9 @@ For each object one irregular source mesh is drawn (about a thousand faces):
 
 CoACD cuts it into convex pieces (:mod:`tognet.objects.decompose`); two pieces (the larger ones are
 likelier) become parts A and B: each is turned so its principal axes match the canonical frame (long
-axis x, height z) and stretched to the part sizes of the T/L/X layout (:mod:`tognet.objects.compose`).
+axis x, height z), stretched to the part sizes of the T/L/X layout (:mod:`tognet.objects.compose`),
+and its underside is cut flat (``flat_bottom``): the pieces are often rounded, and an object resting
+on two rounded undersides kept rocking on the table for seconds in MuJoCo.
 The realistic objects are never used as sources.
 """
 
@@ -24,7 +26,7 @@ import trimesh
 from tognet.config import Config, doc
 from tognet.objects.assemble import MeshError
 from tognet.objects.compose import ShapeRanges, compose, fit_extents, sample_layout, sample_rule, union
-from tognet.objects.decompose import DecomposeConfig, decompose
+from tognet.objects.decompose import DecomposeConfig, capped_hull, decompose, thin_vertices
 
 SOURCES = ("superellipsoid", "revolved", "lofted", "blob")
 
@@ -43,6 +45,11 @@ class ComplexConfig(Config):
     )
     decompose: DecomposeConfig = doc(factory=_default_decompose, text="CoACD settings for the source meshes.")
     noise: tuple[float, float] = doc((0.04, 0.14), "Amplitude range of each radial noise wave (fraction).")
+    flat_bottom: float = doc(
+        0.15,
+        "Cut each part's bottom flat at this fraction of its height (then restretch it to its extents), "
+        "so the object rests on faces instead of rocking on a rounded underside; 0 = no cut.",
+    )
 
 
 def _waves(rng: np.random.Generator, directions: np.ndarray, amplitude: tuple[float, float]) -> np.ndarray:
@@ -149,6 +156,32 @@ def canonical(piece: trimesh.Trimesh, rng: np.random.Generator) -> trimesh.Trime
     return out
 
 
+def flat_bottom(part: trimesh.Trimesh, fraction: float, max_vertices: int = 48) -> trimesh.Trimesh:
+    """A convex part with its lowest ``fraction`` of height cut off by a horizontal plane (a flat face).
+
+    The cut adds vertices; the hull is thinned back to ``max_vertices`` (farthest points first), keeping
+    up to a third of them on the cut face so the face stays broad.
+    """
+    if fraction <= 0:
+        return part
+    if not 0 < fraction < 0.5:
+        raise ValueError(f"flat_bottom must be in [0, 0.5), got {fraction}")
+    z = np.asarray(part.vertices)[:, 2]
+    cut = float(z.min() + fraction * (z.max() - z.min()))
+    try:
+        sliced = trimesh.intersections.slice_mesh_plane(part, [0.0, 0.0, 1.0], [0.0, 0.0, cut], cap=True)
+        points = np.asarray(trimesh.convex.convex_hull(np.asarray(sliced.vertices)).vertices)
+        on_face = points[:, 2] < cut + 1e-9 * max(1.0, abs(cut))
+        face = thin_vertices(points[on_face], max(3, max_vertices // 3))
+        rest = thin_vertices(points[~on_face], max(1, max_vertices - len(face)))
+        hull = capped_hull(np.concatenate([face, rest]), max_vertices)
+    except Exception as exc:  # slicing fails on degenerate parts
+        raise MeshError(f"cannot cut a flat bottom ({exc})") from None
+    if hull is None or not hull.is_volume:
+        raise MeshError("the part with a flat bottom is not a closed volume")
+    return hull
+
+
 def make_complex(
     rng: np.random.Generator, config: ComplexConfig | None = None
 ) -> tuple[trimesh.Trimesh, list[trimesh.Trimesh], str, list[str], dict[str, Any]]:
@@ -165,8 +198,11 @@ def make_complex(
         chosen = np.array([0, 0])
     rule = sample_rule(rng, config.ranges)
     layout = sample_layout(rng, config.ranges, rule)
-    part_a = fit_extents(canonical(pieces[int(chosen[0])], rng), layout.extents_a)
-    part_b = fit_extents(canonical(pieces[int(chosen[1])], rng), layout.extents_b)
+    parts = [canonical(pieces[int(c)], rng) for c in chosen]
+    part_a, part_b = (
+        fit_extents(flat_bottom(fit_extents(p, e), config.flat_bottom, config.decompose.max_vertices), e)
+        for p, e in zip(parts, (layout.extents_a, layout.extents_b), strict=True)
+    )
     visual, parts = compose(part_a, part_b, layout, config.ranges.max_length)
     info = {
         "source": source,

@@ -40,8 +40,9 @@ GENERATED_KINDS = ("primitive", "complex", "realistic")
 CONFIG_NAME = "generator_config.json"
 SEED_NAMESPACE = "tognet/objects/v1"
 MAX_ATTEMPTS = 8
-#: 1: first release; 2: density drawn from the feasible interval (no mass clamp).
-GENERATOR_VERSION = 2
+#: 1: first release; 2: density drawn from the feasible interval (no mass clamp);
+#: 3: PG-Complex parts get a flat bottom face.
+GENERATOR_VERSION = 3
 
 
 @dataclass(frozen=True)
