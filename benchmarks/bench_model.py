@@ -29,9 +29,10 @@ def _stats(ts: list[float]) -> str:
     return f"median {np.median(a):6.2f} ms  p90 {np.percentile(a, 90):6.2f} ms  min {a.min():6.2f} ms"
 
 
-def bench_inference(repeats: int, n: int = 200) -> dict[tuple[str, int], tuple[list[float], list[float]]]:
-    """Wall and process-CPU seconds per predict() call for eager/TorchScript x 1/2 threads, the settings
-    interleaved call by call so that other jobs on the machine affect them alike."""
+def bench_inference(repeats: int, threads: int, n: int = 200) -> dict[str, list[float]]:
+    """Wall seconds per predict() call, eager and TorchScript interleaved call by call so that other
+    jobs on the machine affect both alike."""
+    torch.set_num_threads(threads)
     torch.manual_seed(0)
     model = TOGNet(ArchConfig()).eval()
     predictors = {"eager": TOGNetPredictor(model, device="cpu", optimize=False),
@@ -39,16 +40,13 @@ def bench_inference(repeats: int, n: int = 200) -> dict[tuple[str, int], tuple[l
     rng = np.random.default_rng(0)
     crops = rng.normal(0.0, 0.02, size=(n, 64, 64)).astype(np.float32)
     z = rng.uniform(0.6, 1.0, size=n).astype(np.float32)
-    settings = [(kind, threads) for kind in predictors for threads in (1, 2)]
-    out: dict[tuple[str, int], tuple[list[float], list[float]]] = {k: ([], []) for k in settings}
+    out: dict[str, list[float]] = {k: [] for k in predictors}
     for i in range(repeats + 5):
-        for kind, threads in settings:
-            torch.set_num_threads(threads)
-            w, c = time.perf_counter(), time.process_time()
-            predictors[kind].predict(crops, z)
+        for kind, predictor in predictors.items():
+            t = time.perf_counter()
+            predictor.predict(crops, z)
             if i >= 5:  # warm-up calls are not timed
-                out[(kind, threads)][0].append(time.perf_counter() - w)
-                out[(kind, threads)][1].append(time.process_time() - c)
+                out[kind].append(time.perf_counter() - t)
     return out
 
 
@@ -91,20 +89,16 @@ def main() -> None:
           f"{platform.python_version()}, torch {torch.__version__}; load average {os.getloadavg()}")
     model = TOGNet(ArchConfig())
     print(f"default architecture: {sum(p.numel() for p in model.parameters())} parameters")
-    print("inference, 200 candidates, TOGNetPredictor.predict (BN folded, inference mode, numpy in/out);")
-    print("wall time, and process CPU time (what one idle core would need; with 2 threads both cores' sum):")
+    print("inference, 200 candidates, TOGNetPredictor.predict (BN folded, inference mode, numpy in/out):")
     for allocator in ("glibc default", "tuned"):
         if allocator == "tuned":
             tune_allocator()
-        for (kind, threads), (wall, cpu) in bench_inference(args.repeats).items():
-            print(f"  {allocator:13s} allocator, {kind:11s}, {threads} thread(s): wall {_stats(wall)}")
-            print(f"  {'':13s}            {'':11s}              cpu  {_stats(cpu)}")
+        for threads in (1, 2):
+            for kind, wall in bench_inference(args.repeats, threads).items():
+                print(f"  {allocator:13s} allocator, {kind:11s}, {threads} thread(s): {_stats(wall)}")
     print(f"training, batch {args.batch}, default architecture, Adam step:")
     for threads in (1, 2):
-        c = time.process_time()
-        rate = bench_training(threads, args.steps, args.batch)
-        cpu = time.process_time() - c
-        print(f"  {threads} thread(s): {rate:7.0f} samples/s wall ({cpu:.1f} s CPU, {args.steps + 3} steps)")
+        print(f"  {threads} thread(s): {bench_training(threads, args.steps, args.batch):7.0f} samples/s")
     print(f"load average after: {os.getloadavg()}")
 
 

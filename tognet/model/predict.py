@@ -74,10 +74,14 @@ class TOGNetPredictor:
         self.crop_size = model.arch.crop_size
 
     @classmethod
-    def load(cls, path: str | Path, device: str | None = None, num_threads: int | None = None,
+    def load(cls, path: str | Path, device: str | None = None, num_threads: int | None = 1,
              tune_malloc: bool = True, optimize: bool = True) -> TOGNetPredictor:
         """Load a checkpoint (``best.pt`` or ``last.pt``). ``device``: None/'auto' picks CUDA if present.
-        ``num_threads`` fixes torch's CPU threads; ``tune_malloc`` applies :func:`tune_allocator`."""
+
+        ``num_threads`` sets torch's (process-wide) CPU threads, 1 by default: on this 2-core machine
+        shared with other jobs, 2 threads had a p90 latency of 0.4-1 s for 200 candidates against
+        ~17 ms with 1 (benchmarks/RESULTS.md); pass 2 on an idle machine, None to leave it alone.
+        ``tune_malloc`` applies :func:`tognet.model.runtime.tune_allocator`."""
         if num_threads is not None:
             set_threads(num_threads)
         if tune_malloc:
