@@ -42,7 +42,9 @@ class CEMConfig(Config):
         False, "Treat phi and phi + pi as the same grasp (double the angle in the embedding)."
     )
     z_bounds: tuple[float, float] | None = doc(
-        None, "Clip sampled grasp heights into (low, high) metres (None: no clipping)."
+        (0.018, 1.0),
+        "Clip sampled grasp heights into (low, high) metres; the low end matches "
+        "AntipodalConfig.finger_clearance (the simulator lifts lower centres anyway). None: no clipping.",
     )
 
 
