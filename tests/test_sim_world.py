@@ -126,3 +126,21 @@ def test_bad_inputs_raise_clear_errors(tools, hammer_sim):
     hammer_sim.reset(0)
     with pytest.raises(ValueError, match="4 finite numbers"):
         hammer_sim.execute(Grasp(0, 0, 0.02, 0), np.zeros(3), 0)
+
+
+def test_peg_friction_does_not_creep_below_its_threshold(hammer_sim):
+    """MuJoCo's dry friction is a soft constraint; the peg's is stiff enough that a slow push fails."""
+    m, d = hammer_sim.model, hammer_sim.data
+    dof = m.jnt_dofadr[m.joint("peg").id]
+    friction = hammer_sim.config.hammering.peg_friction
+    moved = {}
+    for fraction in (0.9, 1.2):
+        hammer_sim.reset(0)
+        start = d.qpos[hammer_sim._peg_qadr]
+        d.qfrc_applied[dof] = fraction * friction
+        mujoco.mj_step(m, d, 1000)  # 2 s
+        moved[fraction] = d.qpos[hammer_sim._peg_qadr] - start
+        d.qfrc_applied[dof] = 0.0
+    assert abs(moved[0.9]) < 0.0005  # under half a millimetre in 2 s at 90 % of the friction
+    assert moved[1.2] > 0.04  # above it the peg slides home
+    hammer_sim.reset(0)

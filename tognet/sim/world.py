@@ -151,7 +151,7 @@ def _props_xml(config: SimConfig, task: str) -> list[str]:
             '  <body name="peg">',
             f'    <joint name="peg" type="slide" axis="1 0 0" range="-0.001 {0.5 * length + 0.001:g}" '
             f'frictionloss="{c.peg_friction:g}" solreffriction="{2 * dt:g} 1" '
-            'solimpfriction="0.99 0.999 0.001"/>',
+            f'solimpfriction="{c.peg_friction_impedance:g} {c.peg_friction_impedance:g} 0.001"/>',
             f'    <geom name="peg" type="box" size="{0.5 * length:g} {0.5 * s:g} {0.5 * s:g}" '
             f'mass="{c.peg_mass:g}" '
             f'friction="0.5 0.005 0.0001" priority="3" '
