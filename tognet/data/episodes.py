@@ -480,17 +480,24 @@ def read_dataset(
     task: str | None = None,
     skip_bad: bool = False,
     keep_invalid: bool = False,
+    progress: bool = False,
 ) -> EpisodeArrays:
     """All episodes of one or more dataset folders, invalid ones (valid=0) dropped.
 
     ``task``: if given, every folder's manifest must name it. ``skip_bad``: a corrupt, truncated or missing
-    shard is skipped with a warning instead of raising :class:`DatasetError`.
+    shard is skipped with a warning instead of raising :class:`DatasetError`. ``progress``: a tqdm bar
+    over the shards.
     """
     dirs = expand_dataset_dirs(dirs)
     if not dirs:
         raise DatasetError("no dataset folders given")
     parts: list[EpisodeArrays] = []
     tasks: dict[str, Path] = {}
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(desc="reading shards", unit="shard", mininterval=1.0)
     for folder in dirs:
         folder_task = dataset_task(folder) if folder.is_dir() else None
         if folder_task is not None:
@@ -501,6 +508,8 @@ def read_dataset(
         if not paths:
             raise DatasetError(f"{folder}: no shards found")
         for path in paths:
+            if bar is not None:
+                bar.update(1)
             try:
                 episodes, meta = read_shard(path)
             except DatasetError as exc:
@@ -511,6 +520,8 @@ def read_dataset(
             if task is not None and meta.get("task") not in (None, task):
                 raise DatasetError(f"{path}: shard holds task {meta.get('task')!r}, expected {task!r}")
             parts.append(episodes)
+    if bar is not None:
+        bar.close()
     if len(tasks) > 1:
         raise DatasetError(f"dataset folders hold different tasks: {sorted(tasks)}")
     episodes = EpisodeArrays.concatenate(parts)

@@ -196,7 +196,7 @@ def train(
     tune_allocator()
     device = select_device(config.device)
 
-    episodes = read_dataset(data_dirs, task=task, skip_bad=config.skip_bad_shards)
+    episodes = read_dataset(data_dirs, task=task, skip_bad=config.skip_bad_shards, progress=progress)
     if len(episodes) < 2:
         raise TrainingError(f"only {len(episodes)} valid episodes in {list(map(str, data_dirs))}")
     data_desc = describe_dataset(data_dirs)
