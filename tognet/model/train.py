@@ -181,7 +181,29 @@ def train(
     progress: bool = True,
     log: Callable[[str], None] = print,
 ) -> TrainResult:
-    """Train (or resume training) a TOG-Net model on the episodes in ``data_dirs`` for ``task``."""
+    """Train (or resume training) a TOG-Net model on the episodes in ``data_dirs`` for ``task``.
+
+    torch's thread count and deterministic-algorithms setting are changed while training and restored
+    afterwards."""
+    saved = (torch.get_num_threads(), torch.are_deterministic_algorithms_enabled(),
+             torch.is_deterministic_algorithms_warn_only_enabled())
+    try:
+        return _train(data_dirs, task, out, config, resume=resume, progress=progress, log=log)
+    finally:
+        torch.set_num_threads(saved[0])
+        torch.use_deterministic_algorithms(saved[1], warn_only=saved[2])
+
+
+def _train(
+    data_dirs: Sequence[str | Path],
+    task: str,
+    out: str | Path,
+    config: TrainConfig | None,
+    *,
+    resume: bool,
+    progress: bool,
+    log: Callable[[str], None],
+) -> TrainResult:
     config = config or TrainConfig()
     out = Path(out)
     last_path, best_path = out / "last.pt", out / "best.pt"
