@@ -222,3 +222,27 @@ def test_another_config_into_an_existing_set_keeps_it(small_set, tmp_path):
     args = ["objects", "generate", "--kind", "primitive", "--count", "1", "--start=2", "--config", str(cfg)]
     _one_line_error(runner.invoke(app, [*args, "--out", str(folder)]), "different generator config")
     assert {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()} == before
+
+
+def test_sheet_side_view_is_readable(tmp_path):
+    """A 30 x 3 x 2 cm bar: its side view is a band tall enough to see (2/3 of its top view's width)."""
+    from tognet.objects import assemble_object, write_catalog
+    from tognet.objects.sheet import write_contact_sheet
+
+    bar = trimesh.creation.box(extents=(0.30, 0.03, 0.02))
+    record = assemble_object(
+        tmp_path / "set", object_id="bar", kind="primitive", split="test", shape_rule="T",
+        part_types=["cuboid"], visual=bar, collision_pieces=[bar], density=700.0, friction=0.8,
+    )  # fmt: skip
+    write_catalog(tmp_path / "set", [record])
+    png = write_contact_sheet(tmp_path / "set", tmp_path / "sheet.png")
+    rgb = np.asarray(Image.open(png).convert("RGB")).astype(int)
+    blue = (rgb[:, :, 2] - rgb[:, :, 0] > 40).any(axis=1)
+    rows = np.flatnonzero(blue)
+    bands = np.split(rows, np.flatnonzero(np.diff(rows) > 3) + 1)
+    assert len(bands) == 2, [(b[0], b[-1]) for b in bands]  # top view, then side view
+    top_px, side_px = (len(b) for b in bands)
+    assert side_px == pytest.approx(top_px * 2 / 3, rel=0.2)  # same scale in both views
+    assert side_px >= 25  # 2 cm is readable (the first layout gave it 17 px)
+    with pytest.raises(ValueError, match="PNG"):
+        write_contact_sheet(tmp_path / "set", tmp_path / "sheet.jpg")
