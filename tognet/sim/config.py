@@ -121,7 +121,7 @@ class GripperConfig(Config):
     )
     linear_force: float = doc(100.0, "Force limit of each linear base actuator (N).")
     yaw_torque: float = doc(
-        1.2,
+        1.1,
         "Torque limit of the wrist (N m). Kept below peg_friction x the shortest useful lever, so the "
         "motor cannot push the peg home slowly.",
     )

@@ -50,7 +50,7 @@ class HammeringConfig(Config):
     peg_height: float = doc(0.045, "Height of the peg's axis above the table (m).")
     peg_mass: float = doc(0.05, "Peg mass (kg).")
     peg_friction: float = doc(
-        12.0, "Dry friction resisting the peg's slide (N): frictionloss on its joint, stiff solreffriction."
+        11.0, "Dry friction resisting the peg's slide (N): frictionloss on its joint, stiff solreffriction."
     )
     contact_solref: tuple[float, float] = doc(
         (0.005, 1.0),
