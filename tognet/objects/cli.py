@@ -141,6 +141,26 @@ def list_cmd(set_dir: Path = typer.Argument(..., help="Set folder (with catalog.
     typer.echo(f"{len(records)} objects in {set_dir}")
 
 
+@objects_app.command("stats")
+@user_errors
+def stats_cmd(
+    set_dir: Path = typer.Argument(..., help="Set folder (with catalog.json)."),
+    opening: float = typer.Option(0.08, "--opening", min=0.01, help="Gripper opening (m) for 'graspable'."),
+) -> None:
+    """Summarise how tool-like a set is: length, height, narrowest part, mass, head share, resting pose."""
+    from tqdm import tqdm
+
+    from tognet.objects.record import load_catalog
+    from tognet.objects.stats import object_stats, summary_lines
+
+    records = load_catalog(set_dir)
+    if not records:
+        raise ValueError(f"{set_dir}: the catalog lists no objects")
+    stats = [object_stats(r, opening) for r in tqdm(records, desc="measure", unit="obj", leave=False)]
+    for line in summary_lines(stats, opening):
+        typer.echo(line)
+
+
 def register(app: typer.Typer) -> None:
     """Add the ``objects`` command group to the tognet command."""
     app.add_typer(objects_app, name="objects")
