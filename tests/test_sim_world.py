@@ -88,8 +88,8 @@ def test_same_inputs_same_labels_and_state_round_trip(hammer_sim):
     grasp = far_end_grasp(hammer_sim)
     action = hammer_action(hammer_sim, "far_end")
     first = hammer_sim.execute(grasp, action, 7)
-    after = hammer_sim.save_state()
-    assert not np.array_equal(saved, after)  # the trial moved things
+    assert first.info["sim_time"] > 1.0  # the trial ran...
+    np.testing.assert_array_equal(saved, hammer_sim.save_state())  # ...and the scene is back
     second = hammer_sim.execute(grasp, action, 7)
     assert (first.grasp_success, first.task_success, first.failure) == (
         second.grasp_success,
@@ -97,7 +97,8 @@ def test_same_inputs_same_labels_and_state_round_trip(hammer_sim):
         second.failure,
     )
     assert first.info["peg_out"] == second.info["peg_out"]
-    np.testing.assert_array_equal(after, hammer_sim.save_state())
+    # save_state / restore_state round-trip through a changed world.
+    hammer_sim.data.qpos[:3] += 0.1
     hammer_sim.restore_state(saved)
     np.testing.assert_array_equal(saved, hammer_sim.save_state())
     # A fresh simulator with the same scene seed gives the same labels too.

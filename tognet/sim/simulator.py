@@ -522,7 +522,10 @@ class Simulator:
         return Grasp.from_array([com[0], com[1], com[2], np.arctan2(minor[1], minor[0])])
 
     def execute(self, grasp: Grasp, action: Any = None, seed: int = 0) -> TrialResult:
-        """Restore the settled scene and run one trial: grasp, lift, transport, primitive; label it."""
+        """Run one trial from the settled scene (grasp, lift, transport, primitive) and label it.
+
+        The world is put back in the settled scene afterwards, ready for the next trial.
+        """
         if self._saved is None:
             raise SimulationError("call reset(seed) before execute()")
         if self.task is not None:
@@ -531,10 +534,15 @@ class Simulator:
         rng = np.random.default_rng([int(self._scene["seed"]), int(seed), 0xE8EC])
         info: dict[str, Any] = {"seed": int(seed), "scene_seed": self._scene["seed"]}
         try:
-            return self._execute(grasp, action, rng, info)
+            result = self._execute(grasp, action, rng, info)
         except _Unstable as exc:
             info["unstable"] = str(exc)
-            return TrialResult(False, False, False, FailureReason.UNSTABLE, info)
+            result = TrialResult(False, False, False, FailureReason.UNSTABLE, info)
+        info["sim_time"] = float(self.data.time)
+        # Back to the settled scene, so object_pose(), default_grasp() and the next trial see it.
+        mujoco.mj_setState(self.model, self.data, self._saved, self._state_spec)
+        mujoco.mj_forward(self.model, self.data)
+        return result
 
     def _execute(
         self, grasp: Grasp, action: Any, rng: np.random.Generator, info: dict[str, Any]
