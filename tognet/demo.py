@@ -18,13 +18,17 @@ from tognet.cliutil import user_errors
 @user_errors
 def demo(
     out: Path = typer.Option(Path("runs/demo"), help="Folder for everything the demo writes."),
-    count: int = typer.Option(4, min=1, help="Objects of each kind to generate."),
+    count: int = typer.Option(4, min=1, help="PG-Primitive and PG-Complex objects to generate."),
+    realistic: int = typer.Option(
+        12, min=1, help="Realistic models to generate (the first N: tools, then mugs, bottles, cans...)."
+    ),
 ) -> None:
     """Generate a few objects of each kind and write their contact sheet (the pipeline grows from here)."""
     from tognet.objects import generate_set
     from tognet.objects.sheet import write_contact_sheet
 
     out.mkdir(parents=True, exist_ok=True)
+    sheets: list[Path] = []
     for kind in ("primitive", "complex", "realistic"):
         folder = out / "objects" / kind
         if kind == "realistic" and importlib.util.find_spec("tognet.objects.realistic") is None:
@@ -32,9 +36,28 @@ def demo(
             continue
         if (folder / "catalog.json").is_file():
             shutil.rmtree(folder)  # the demo's own set from an earlier run: regenerate it from scratch
-        generate_set(kind=kind, split="test", count=count, out=folder, progress=True)
-        sheet = write_contact_sheet(folder, out / f"sheet_{kind}.png")
-        typer.echo(f"{kind}: {count} objects in {folder}, contact sheet {sheet}")
+        n = count
+        if kind == "realistic":
+            from tognet.objects.generate import realistic_count
+
+            n = min(realistic, realistic_count())
+        records = generate_set(kind=kind, split="test", count=n, out=folder, progress=True)
+        sheets.append(write_contact_sheet(folder, out / f"sheet_{kind}.png"))
+        masses = [1000 * r.mass for r in records]
+        lengths = [100 * max(r.extents[:2]) for r in records]
+        names = ", ".join(
+            str(r.extra.get("name"))
+            if kind == "realistic"
+            else f"{r.shape_rule}:{'+'.join(dict.fromkeys(r.part_types))}"
+            for r in records
+        )
+        typer.echo(
+            f"{kind}: {len(records)} objects ({names}); {min(lengths):.0f}-{max(lengths):.0f} cm long, "
+            f"{min(masses):.0f}-{max(masses):.0f} g; catalog {folder / 'catalog.json'}"
+        )
+    typer.echo("contact sheets (each object from above and from the side, 10 cm bar):")
+    for sheet in sheets:
+        typer.echo(f"  {sheet}")
 
 
 def register(app: typer.Typer) -> None:

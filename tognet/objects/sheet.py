@@ -58,9 +58,12 @@ def _extent(meshes: list[trimesh.Trimesh], axis: int) -> float:
     return max(float(np.max(np.abs(np.asarray(m.vertices)[:, axis]))) for m in meshes)
 
 
-def write_contact_sheet(set_dir: Path, out_png: Path, max_objects: int = 24, columns: int = 4) -> Path:
+def write_contact_sheet(
+    set_dir: Path, out_png: Path, max_objects: int = 24, columns: int | None = None
+) -> Path:
     """Write a PNG grid of (up to ``max_objects``) objects of ``set_dir``, top and side views.
 
+    ``columns`` defaults to 4 (6 for more than 16 objects).
     Every panel of the sheet has the same scale (a 10 cm bar in each top view). Top views span the
     sheet's largest |x| and |y| (not a square, so flat, long tools get wide panels); side views stand
     each object on a ground line and span the sheet's tallest object, at least a third of the top
@@ -80,6 +83,7 @@ def write_contact_sheet(set_dir: Path, out_png: Path, max_objects: int = 24, col
     half_y = max(half_y, 0.45 * half_x)  # room for the label and the scale bar
     tallest = max(float(np.ptp(np.asarray(m.vertices)[:, 2])) for m in meshes)
     z_span = max(tallest * 1.25, 2 * half_y / 3)
+    columns = columns or (4 if len(records) <= 16 else 6)
     cols = max(1, min(columns, len(records)))
     rows = math.ceil(len(records) / cols)
     cell_w = 3.4
