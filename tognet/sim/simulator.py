@@ -29,6 +29,9 @@ SIM_TASKS = (*TASK_NAMES, "grasping")
 
 # Geom categories used to read contacts quickly.
 OTHER, TABLE, GROUND, OBJECT, FINGER_L, FINGER_R, GRIPPER, CAN, PEG, SLOT = range(10)
+_TOOL_SIDE = np.isin(np.arange(10), (OBJECT, FINGER_L, FINGER_R, GRIPPER))  # the tool or the hand
+_HAND = np.isin(np.arange(10), (FINGER_L, FINGER_R, GRIPPER))
+_PROPS = np.isin(np.arange(10), (CAN, PEG, SLOT))
 
 
 #: Pixel stride of the coarse ray-casting pass (3 px is about 6 mm on the table: thinner parts can be missed).
@@ -602,10 +605,7 @@ class Simulator:
 
         def watch_props() -> None:
             pairs = self._contacts()
-            if len(pairs) and np.any(
-                np.isin(pairs[:, 0], (OBJECT, FINGER_L, FINGER_R, GRIPPER))
-                & np.isin(pairs[:, 1], (CAN, PEG, SLOT))
-            ):
+            if len(pairs) and np.any(_TOOL_SIDE[pairs[:, 0]] & _PROPS[pairs[:, 1]]):
                 hit_before[0] = True
 
         self._move(np.array([start[0], start[1], high]), start_yaw, g.linear_speed, g.yaw_speed, watch_props)
@@ -624,7 +624,7 @@ class Simulator:
         if not n:
             return
         cats = np.sort(self._cat[d.contact.geom[:n]], axis=1)
-        hit = (cats[:, 0] == OBJECT) & np.isin(cats[:, 1], (FINGER_L, FINGER_R, GRIPPER))
+        hit = (cats[:, 0] == OBJECT) & _HAND[cats[:, 1]]
         if np.any(hit & (d.contact.dist[:n] < -self.config.episode.landing_depth)):
             raise _Landed()
 
@@ -655,9 +655,7 @@ class Simulator:
             pairs = self._contacts()
             if not len(pairs):
                 return
-            if np.any(
-                np.isin(pairs[:, 0], (OBJECT, FINGER_L, FINGER_R, GRIPPER)) & np.isin(pairs[:, 1], targets)
-            ):
+            if np.any(_TOOL_SIDE[pairs[:, 0]] & np.isin(pairs[:, 1], targets)):
                 touched[0] = True
             if n_cans:
                 geoms = self.data.contact.geom[: self.data.ncon]
