@@ -284,3 +284,17 @@ def test_complex_objects_rest_on_flat_faces(sets):
         visual = trimesh.load(record.path(record.visual_mesh), force="mesh")
         margin = _support(visual, 1e-4).buffer(-0.003)
         assert margin.contains(Point(record.com[0], record.com[1])), f"{record.object_id} would tip over"
+
+
+def test_polytope_primitives_rest_on_a_face_in_their_generated_pose(tmp_path):
+    from tognet.objects import GeneratorConfig
+    from tognet.objects.primitive import PrimitiveConfig
+    from tognet.objects.stats import object_stats
+
+    config = GeneratorConfig(primitive=PrimitiveConfig(part_weights=(0.0, 0.0, 1.0)))
+    records = generate_set("primitive", "train", 10, tmp_path, config=config)
+    for record in records:
+        assert record.part_types == ["polytope", "polytope"]
+        for piece in (trimesh.load(p, force="mesh") for p in record.collision_paths):
+            assert _support(piece).area > 1e-4, f"{record.object_id}: a polytope stands on < 1 cm^2"
+        assert object_stats(record).rests_flat, f"{record.object_id} would tip from its generated pose"

@@ -25,6 +25,7 @@ import trimesh
 
 from tognet.config import Config, doc
 from tognet.objects.assemble import MeshError
+from tognet.objects.decompose import capped_hull, thin_vertices
 
 RULES = ("T", "L", "X")
 
@@ -177,6 +178,32 @@ def compose(
         out.append(moved)
     layout.info["shrink"] = round(scale, 6)
     return out[0], out[1:]
+
+
+def flat_bottom(part: trimesh.Trimesh, fraction: float, max_vertices: int = 48) -> trimesh.Trimesh:
+    """A convex part with its lowest ``fraction`` of height cut off by a horizontal plane (a flat face).
+
+    The cut adds vertices; the hull is thinned back to ``max_vertices`` (farthest points first), keeping
+    up to a third of them on the cut face so the face stays broad.
+    """
+    if fraction <= 0:
+        return part
+    if not 0 < fraction < 0.5:
+        raise ValueError(f"flat_bottom must be in [0, 0.5), got {fraction}")
+    z = np.asarray(part.vertices)[:, 2]
+    cut = float(z.min() + fraction * (z.max() - z.min()))
+    try:
+        sliced = trimesh.intersections.slice_mesh_plane(part, [0.0, 0.0, 1.0], [0.0, 0.0, cut], cap=True)
+        points = np.asarray(trimesh.convex.convex_hull(np.asarray(sliced.vertices)).vertices)
+        on_face = points[:, 2] < cut + 1e-9 * max(1.0, abs(cut))
+        face = thin_vertices(points[on_face], max(3, max_vertices // 3))
+        rest = thin_vertices(points[~on_face], max(1, max_vertices - len(face)))
+        hull = capped_hull(np.concatenate([face, rest]), max_vertices)
+    except Exception as exc:  # slicing fails on degenerate parts
+        raise MeshError(f"cannot cut a flat bottom ({exc})") from None
+    if hull is None or not hull.is_volume:
+        raise MeshError("the part with a flat bottom is not a closed volume")
+    return hull
 
 
 def sample_density(rng: np.random.Generator, ranges: ShapeRanges, volume: float) -> float:

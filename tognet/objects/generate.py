@@ -41,8 +41,8 @@ CONFIG_NAME = "generator_config.json"
 SEED_NAMESPACE = "tognet/objects/v1"
 MAX_ATTEMPTS = 8
 #: 1: first release; 2: density drawn from the feasible interval (no mass clamp);
-#: 3: PG-Complex parts get a flat bottom face.
-GENERATOR_VERSION = 3
+#: 3: PG-Complex parts get a flat bottom face; 4: so do PG-Primitive polytopes.
+GENERATOR_VERSION = 4
 
 
 @dataclass(frozen=True)

@@ -3,7 +3,8 @@
 Part types:
 - ``cuboid``: a box (long flat edges: what sweeping needs);
 - ``cylinder``: an elliptic cylinder whose axis is the part's long axis (a round handle or head);
-- ``polytope``: the convex hull of 8-16 random points, stretched to the part's extents.
+- ``polytope``: the convex hull of 8-16 random points, its bottom cut flat (``polytope_flat_bottom``),
+  stretched to the part's extents.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from tognet.objects.compose import (
     ShapeRanges,
     compose,
     fit_extents,
+    flat_bottom,
     sample_layout,
     sample_rule,
 )
@@ -37,6 +39,11 @@ class PrimitiveConfig(Config):
     )
     cylinder_sections: int = doc(20, "Facets around a cylinder.")
     polytope_points: tuple[int, int] = doc((8, 16), "Number of random points of a polytope (inclusive).")
+    polytope_flat_bottom: float = doc(
+        0.15,
+        "Cut a polytope's bottom flat at this fraction of its height (then restretch it), so it rests on "
+        "a face rather than a vertex and the object stays in the pose it was made in; 0 = no cut.",
+    )
 
 
 def make_part(
@@ -57,7 +64,7 @@ def make_part(
             box = np.prod(hull.extents)
             if hull.is_volume and box > 0 and hull.volume / box > 0.25:
                 break
-        mesh = hull
+        mesh = flat_bottom(fit_extents(hull, extents), config.polytope_flat_bottom)
     else:
         raise ValueError(f"unknown part type {part_type!r}; expected one of {', '.join(PART_TYPES)}")
     return fit_extents(mesh, extents)
