@@ -1,9 +1,23 @@
 """The simulator: one MuJoCo model per (object, task), reused across scenes and trials.
 
-``reset(seed)`` drops the object, lets it settle, disturbs the camera, takes one depth image by ray
-casting, places the task's props and saves that settled state. ``execute(grasp, action, seed)`` restores
-the saved state, so one scene serves many trials, then runs the grasp (approach, close, lift, hold),
-the transport to the start pose and the task's motion primitive, and labels the trial.
+``reset(seed)`` places the task's props, drops the object at a random pose in the grasping half (x < 0),
+lets it settle, disturbs the camera, takes one depth image by ray casting and saves that settled state.
+``execute(grasp, action, seed)`` restores the saved state, so one scene serves many trials, and runs:
+
+1. grasp: the gripper appears ``approach_height`` above the (noisy) grasp, descends (a finger or the
+   palm pressing into the object on the way down fails the grasp), closes with a force limit, lifts the
+   grasp centre to ``lift_height`` (at least ``min_lift``) and holds. S_G: both fingers touch the tool and
+   its lowest point is clear of the table.
+2. transport: to ``start_clearance`` above the start pose (task reference + nominal offset + action, yaw
+   nominal + a_phi, with noise), then down to it. Touching a prop on the way is COLLISION_BEFORE_MOTION;
+   a tool no longer between both fingers is DROPPED.
+3. primitive: the task's motion (speed- and force-limited servos, acceleration-limited setpoints), then
+   a settling time; the task's rule labels S_T. A can that reaches the ground has done its part and is
+   taken out of the scene (its fast impact is not simulated).
+
+Any NaN, joint speed above ``max_speed`` or contact deeper than ``max_penetration`` (ground contacts
+excepted) makes the trial invalid (UNSTABLE), never a success or a failure. Afterwards the world is back
+in the settled scene.
 """
 
 from __future__ import annotations
