@@ -83,10 +83,13 @@ def import_cmd(
 ) -> None:
     """Import your own meshes as objects (kind 'imported').
 
-    Each file is repaired (merged vertices, small holes filled), checked (empty, unreadable, flat or
-    zero volume, longest side outside 1 cm..1.5 m, not watertight), convex-decomposed and written.
-    Files that fail are listed with the reason; the others are imported. Exit code 0 if every file was
-    imported, 1 if any failed, 2 on a usage error (no such folder, no mesh files).
+    Each file is repaired (vertices merged, small holes filled) and checked.
+
+    Refused with the reason: unreadable, empty, flat, zero volume, size outside 1 cm-1.5 m, not watertight.
+
+    The other files are convex-decomposed and written; objects already in --out are kept.
+
+    Exit code: 0 if every file was imported, 1 if any failed, 2 on a usage error.
     """
     from tognet.objects.importer import import_meshes
 
