@@ -72,3 +72,18 @@ def test_empty_masks_and_q_task():
         assert math.isfinite(float(out["loss"]))
     q_t = q_task(torch.tensor([0.5, 0.2]), torch.tensor([0.4, 1.0]))
     assert torch.allclose(q_t, torch.tensor([0.2, 0.2]))
+
+
+def test_masked_rows_with_non_finite_values_carry_nothing():
+    # Episode 1 (failed grasp) and 2 (failed task) hold garbage where they are masked out: a huge Q_T|G
+    # logit is fine for BCE, but an infinite predicted action (0 * inf) must not turn the loss into NaN.
+    batch = {k: v.clone() for k, v in BATCH.items()}
+    batch["action_pred"][1] = float("inf")
+    batch["action"][2] = float("nan")
+    batch = {k: v.requires_grad_(k in ("q_tg_logit", "action_pred")) for k, v in batch.items()}
+    g, t, a = _hand()
+    out = tognet_loss(**batch, config=LossConfig(action_sigma=SIGMA, reduction="batch"))
+    assert float(out["loss"].detach()) == pytest.approx((g + t + a) / 4, rel=1e-5)
+    out["loss"].backward()
+    assert torch.all(torch.isfinite(batch["action_pred"].grad))
+    assert torch.all(batch["action_pred"].grad[[1, 2]] == 0)

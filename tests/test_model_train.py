@@ -173,3 +173,27 @@ def test_wrong_task_refused(dataset, tmp_path):
 
     with pytest.raises(DatasetError, match="expected 'hammering'"):
         train([dataset], "hammering", tmp_path / "o", _cfg(), progress=False, log=lambda s: None)
+
+
+@pytest.mark.parametrize("reduction", ["batch", "masked"])
+def test_validation_loss_is_the_training_loss(trained, dataset, reduction):
+    # evaluate() accumulates the loss over many batches; it must equal tognet_loss over the whole set
+    # (same masks, same reduction), or early stopping and best.pt follow a different objective.
+    from tognet.data.episodes import read_dataset
+    from tognet.model.checkpoint import model_from_checkpoint
+    from tognet.model.config import LossConfig
+    from tognet.model.loss import tognet_loss
+    from tognet.model.train import _Tensors, evaluate
+
+    loss_cfg = LossConfig(reduction=reduction)
+    cfg = _cfg(eval_batch_size=37, loss=loss_cfg)
+    model = model_from_checkpoint(load_checkpoint(trained.best_path)).eval()
+    data = _Tensors(read_dataset([dataset]), torch.device("cpu"))
+    assert 0 < float(data.s_t.sum()) < float(data.s_g.sum()) < len(data)
+    result = evaluate(model, data, cfg)
+    with torch.no_grad():
+        out = model(data.crop, data.z)
+        ref = tognet_loss(out["q_g_logit"], out["q_tg_logit"], model.denormalize_action(out["action_norm"]),
+                          data.s_g, data.s_t, data.action, loss_cfg)
+    for key in ("loss", "grasp", "task", "action"):
+        assert result[key] == pytest.approx(float(ref[key]), rel=1e-4), key

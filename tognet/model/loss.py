@@ -14,6 +14,12 @@ Reductions over a batch of N episodes:
 - ``"batch"`` (default): each term is summed over its masked episodes and divided by N, i.e. the paper's
   sum over episodes scaled by 1/N; rare successes weigh as in the data.
 - ``"masked"``: each term is the mean over its own masked subset (0 when the subset is empty).
+
+The action angle a_phi is regressed as a plain number, without wrap-around. That is right for this action
+space: a_phi is the start yaw *relative to the task's nominal yaw*, drawn from a small box around 0
+(+-pi/20 for the random baseline, at most +-pi/4 for the action box), so targets never come near +-pi
+where an angle would wrap. An action space spanning a full turn would need a periodic term instead
+(e.g. regress (cos, sin) or use 1 - cos(d_phi)).
 """
 
 from __future__ import annotations
@@ -24,6 +30,31 @@ import torch
 import torch.nn.functional as F
 
 from tognet.model.config import LossConfig
+
+
+def masked_sums(
+    q_g_logit: torch.Tensor,
+    q_tg_logit: torch.Tensor,
+    action_pred: torch.Tensor,
+    grasp_success: torch.Tensor,
+    task_success: torch.Tensor,
+    action: torch.Tensor,
+    action_sigma: Sequence[float],
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Unweighted per-term sums over the batch and the mask sizes: (sum CE(S_G, Q_G) over every episode,
+    sum CE(S_T, Q_T|G) over S_G = 1, sum 1/2 ||f - a||^2_Sigma over S_T = 1, #S_G=1, #S_T=1).
+
+    The masked terms are computed on the selected rows only, so unselected episodes get exactly zero
+    gradient even when their values are huge or not finite (0 * inf would be NaN). Shared by the training
+    loss and the validation pass (which adds these sums up over many batches)."""
+    m_g = grasp_success > 0.5
+    m_t = task_success > 0.5
+    sigma = torch.as_tensor(action_sigma, dtype=action_pred.dtype, device=action_pred.device)
+    ce_g = F.binary_cross_entropy_with_logits(q_g_logit, grasp_success.to(q_g_logit.dtype), reduction="sum")
+    ce_t = F.binary_cross_entropy_with_logits(q_tg_logit[m_g], task_success[m_g].to(q_tg_logit.dtype),
+                                              reduction="sum")
+    sq = 0.5 * (((action_pred[m_t] - action[m_t]) / sigma) ** 2).sum()
+    return ce_g, ce_t, sq, m_g.sum().to(ce_g.dtype), m_t.sum().to(ce_g.dtype)
 
 
 def tognet_loss(
@@ -41,24 +72,17 @@ def tognet_loss(
     ``action_pred`` and ``action`` are (N, 4) in the same (stored) units.
     """
     config = config or LossConfig()
-    s_g = grasp_success.float()
-    s_t = task_success.float()
-    n = max(int(s_g.shape[0]), 1)
-    sigma = torch.as_tensor(config.action_sigma, dtype=action_pred.dtype, device=action_pred.device)
-    ce_g = F.binary_cross_entropy_with_logits(q_g_logit, s_g, reduction="none")
-    ce_t = F.binary_cross_entropy_with_logits(q_tg_logit, s_t, reduction="none")
-    sq = 0.5 * (((action_pred - action) / sigma) ** 2).sum(dim=1)
-    m_g, m_t = s_g, s_t
-    grasp, task, act = reduce_sums(
-        ce_g.sum(), (m_g * ce_t).sum(), (m_t * sq).sum(), n, m_g.sum(), m_t.sum(), config
-    )
+    n = max(int(grasp_success.shape[0]), 1)
+    s_g, s_t, s_a, n_g, n_t = masked_sums(q_g_logit, q_tg_logit, action_pred, grasp_success, task_success,
+                                          action, config.action_sigma)
+    grasp, task, act = reduce_sums(s_g, s_t, s_a, n, n_g, n_t, config)
     return {
         "loss": grasp + task + act,
         "grasp": grasp,
         "task": task,
         "action": act,
-        "n_grasp_success": m_g.sum(),
-        "n_task_success": m_t.sum(),
+        "n_grasp_success": n_g,
+        "n_task_success": n_t,
     }
 
 

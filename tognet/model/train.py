@@ -35,7 +35,7 @@ from tognet.model.checkpoint import (
     save_checkpoint,
 )
 from tognet.model.config import TrainConfig
-from tognet.model.loss import reduce_sums, tognet_loss
+from tognet.model.loss import masked_sums, reduce_sums, tognet_loss
 from tognet.model.metrics import head_metrics
 from tognet.model.network import TOGNet, normalization_from_data
 from tognet.model.runtime import select_device, set_threads, tune_allocator
@@ -103,17 +103,14 @@ def evaluate(model: TOGNet, data: _Tensors, config: TrainConfig) -> dict[str, An
     sums = torch.zeros(3, dtype=torch.float64)
     counts = torch.zeros(2, dtype=torch.float64)
     q_g, q_tg, act = [], [], []
-    sigma = torch.tensor(config.loss.action_sigma, device=data.z.device)
     for lo in range(0, n, config.eval_batch_size):
         sl = slice(lo, lo + config.eval_batch_size)
         out = model(data.crop[sl].float(), data.z[sl])
-        s_g, s_t = data.s_g[sl], data.s_t[sl]
         a_pred = model.denormalize_action(out["action_norm"])
-        ce_g = torch.nn.functional.binary_cross_entropy_with_logits(out["q_g_logit"], s_g, reduction="none")
-        ce_t = torch.nn.functional.binary_cross_entropy_with_logits(out["q_tg_logit"], s_t, reduction="none")
-        sq = 0.5 * (((a_pred - data.action[sl]) / sigma) ** 2).sum(1)
-        sums += torch.stack([ce_g.sum(), (s_g * ce_t).sum(), (s_t * sq).sum()]).double().cpu()
-        counts += torch.stack([s_g.sum(), s_t.sum()]).double().cpu()
+        terms = masked_sums(out["q_g_logit"], out["q_tg_logit"], a_pred, data.s_g[sl], data.s_t[sl],
+                            data.action[sl], config.loss.action_sigma)
+        sums += torch.stack(terms[:3]).double().cpu()
+        counts += torch.stack(terms[3:]).double().cpu()
         q_g.append(torch.sigmoid(out["q_g_logit"]).cpu())
         q_tg.append(torch.sigmoid(out["q_tg_logit"]).cpu())
         act.append(a_pred.cpu())
