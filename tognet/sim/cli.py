@@ -80,7 +80,7 @@ def register(app: typer.Typer) -> None:
             if gif is not None:
                 from tognet.sim.render import GifRecorder
 
-                recorder = GifRecorder(sim.model, every=2)
+                recorder = GifRecorder(sim.model, every=1)  # a frame every 20 ms of sim time, shown at 25 fps
                 sim._recorder = recorder
             result = sim.execute(g, a, trial_seed)
             typer.echo(
