@@ -474,6 +474,25 @@ def describe_dataset(dirs: str | Path | Iterable[str | Path]) -> dict[str, Any]:
     return {"format_version": FORMAT_VERSION, "datasets": out}
 
 
+def dataset_configs(
+    dirs: str | Path | Iterable[str | Path], config_type: str
+) -> list[tuple[Path, dict[str, Any]]]:
+    """The configs of type ``config_type`` (e.g. ``"CropConfig"``) saved beside the data of dataset folders
+    (``configs/<name>.json`` listed in each manifest), as (file, fields without ``config_type``)."""
+    out: list[tuple[Path, dict[str, Any]]] = []
+    for folder in expand_dataset_dirs(dirs):
+        manifest = _read_manifest(Path(folder)) or {}
+        for entry in manifest.get("configs", []):
+            path = Path(folder) / str(entry.get("file"))
+            try:
+                payload = json.loads(path.read_text())
+            except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
+                raise DatasetError(f"{path}: unreadable config listed in the manifest ({exc})") from exc
+            if isinstance(payload, dict) and payload.get("config_type") == config_type:
+                out.append((path, {k: v for k, v in payload.items() if k != "config_type"}))
+    return out
+
+
 def read_dataset(
     dirs: str | Path | Iterable[str | Path],
     *,

@@ -12,6 +12,7 @@ and z. The labels follow a rule a network can learn:
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -77,10 +78,12 @@ def synthetic_episodes(
 
 def write_synthetic_dataset(
     out_dir: str | Path, task: str = "synthetic", n: int = 512, shard_size: int = 256, seed: int = 0,
-    **kwargs: Any,
+    configs: Mapping[str, Any] | None = None, **kwargs: Any,
 ) -> Path:
-    """Write :func:`synthetic_episodes` as a dataset folder (appending if it exists) and return it."""
+    """Write :func:`synthetic_episodes` as a dataset folder (appending if it exists) and return it.
+    ``configs`` are saved beside the data (see :class:`ShardWriter`)."""
     episodes = synthetic_episodes(n, seed=seed, **kwargs)
-    with ShardWriter(out_dir, task, {"round": 0, "policy": "synthetic", "seed": seed}, shard_size) as writer:
+    with ShardWriter(out_dir, task, {"round": 0, "policy": "synthetic", "seed": seed}, shard_size,
+                     configs=configs) as writer:
         writer.add_batch(**{name: getattr(episodes, name) for name in episodes.__dataclass_fields__})
     return Path(out_dir)

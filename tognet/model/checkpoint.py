@@ -8,6 +8,8 @@ A checkpoint is a ``torch.save`` dict (loaded with ``weights_only=True``: plain 
     arch                            ArchConfig as a dict (repeated for readers that only build the net)
     normalization                   crop/z mean and std, action mean and std per dim
     data                            dataset description: dirs, shard files, counts, sha256, totals
+    crop_config                     CropConfig (size, metric extent, ...) the training crops were made
+                                    with (from the datasets' saved configs); None if they saved none
     split                           train/validation object and episode counts
     code                            tognet version, git commit (if available), torch version
     created                         UTC time
@@ -77,6 +79,7 @@ def save_checkpoint(
     best: dict[str, Any] | None = None,
     metrics: dict[str, Any] | None = None,
     training: dict[str, Any] | None = None,
+    crop_config: dict[str, Any] | None = None,
 ) -> Path:
     """Write a checkpoint atomically (temporary file, then rename)."""
     path = Path(path)
@@ -89,6 +92,7 @@ def save_checkpoint(
         "arch": config.arch.to_dict(),
         "normalization": model.normalization(),
         "data": data,
+        "crop_config": crop_config,
         "split": split or {},
         "code": dict(code_version()),
         "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
@@ -141,6 +145,19 @@ def load_checkpoint(path: str | Path, map_location: str | torch.device = "cpu") 
         ) from exc
     if arch != config.arch:
         raise CheckpointError(f"{path}: 'arch' and 'config.arch' disagree; the file was edited or is corrupt")
+    payload.setdefault("crop_config", None)
+    if payload["crop_config"] is not None:
+        from tognet.grasping.crops import CropConfig
+
+        try:
+            crop = CropConfig.from_dict(payload["crop_config"], where=f"{path}:crop_config")
+        except ConfigError as exc:
+            raise CheckpointError(f"{path}: its crop_config does not match this tognet's CropConfig ({exc})"
+                                  ) from exc
+        if crop.size != arch.crop_size:
+            raise CheckpointError(f"{path}: crop_config.size={crop.size} but the network takes "
+                                  f"{arch.crop_size}-pixel crops")
+        payload["crop_config_obj"] = crop
     payload["config_obj"] = config
     return payload
 
@@ -170,7 +187,8 @@ def model_from_checkpoint(payload: dict[str, Any], path: str | Path = "<checkpoi
 
 def describe(payload: dict[str, Any]) -> dict[str, Any]:
     """The self-description of a loaded checkpoint (everything but tensors), JSON-ready."""
-    out = {k: v for k, v in payload.items() if k not in ("state_dict", "training", "config_obj")}
+    hidden = ("state_dict", "training", "config_obj", "crop_config_obj")
+    out = {k: v for k, v in payload.items() if k not in hidden}
     out["parameters"] = int(sum(v.numel() for k, v in payload["state_dict"].items()
                                 if not k.endswith(("running_mean", "running_var", "num_batches_tracked"))
                                 and not k.startswith(("crop_", "z_", "action_"))))

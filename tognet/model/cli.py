@@ -66,6 +66,7 @@ def info_cmd(
         f"arch         {json.dumps(desc.get('arch'))}",
         f"loss         {json.dumps(desc.get('config', {}).get('loss'))}",
         f"normalise    {json.dumps(desc.get('normalization'))}",
+        f"crops        {json.dumps(desc.get('crop_config'))}",
         f"split        {json.dumps(split)}",
     ]
     for d in desc.get("data", {}).get("datasets", []):

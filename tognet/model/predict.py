@@ -72,6 +72,13 @@ class TOGNetPredictor:
         self.info = info or {}
         self.task: str | None = self.info.get("task")
         self.crop_size = model.arch.crop_size
+        #: The CropConfig the training crops were made with (from the checkpoint), or None if unknown;
+        #: :meth:`predict_grasps` uses it by default so that crops match the training data.
+        self.crop_config: Any = None
+        if self.info.get("crop_config") is not None:
+            from tognet.grasping import CropConfig
+
+            self.crop_config = CropConfig.from_dict(self.info["crop_config"], where="checkpoint crop_config")
 
     @classmethod
     def load(cls, path: str | Path, device: str | None = None, num_threads: int | None = 1,
@@ -149,14 +156,19 @@ class TOGNetPredictor:
                        crop_config: Any = None) -> Prediction:
         """Predict for world grasps (M, 4) on a depth image: ``scene`` is a prepared
         :class:`tognet.grasping.DepthScene` (or a raw depth image with ``camera``). Crops come from
-        :func:`tognet.grasping.extract_crops` (``crop_config``: a CropConfig, default CropConfig() with
-        this model's crop size) and z from :func:`tognet.grasping.grasp_depths`."""
+        :func:`tognet.grasping.extract_crops` with ``crop_config``: by default the checkpoint's (the one its
+        training crops were made with, :attr:`crop_config`), else CropConfig() with this model's crop
+        sizes; z from :func:`tognet.grasping.grasp_depths`."""
         from tognet.grasping import CropConfig, extract_crops, grasp_depths, prepare_depth
 
         scene = prepare_depth(scene, camera)
-        cfg = crop_config or CropConfig(size=self.crop_size, center_size=self.model.arch.center_size)
+        cfg = crop_config or self.crop_config or CropConfig(size=self.crop_size,
+                                                            center_size=self.model.arch.center_size)
         if cfg.size != self.crop_size:
             raise ValueError(f"crop_config.size={cfg.size} but the model takes {self.crop_size}-pixel crops")
+        if cfg.center_size != self.model.arch.center_size:
+            raise ValueError(f"crop_config.center_size={cfg.center_size} but the model's centre crop is "
+                             f"{self.model.arch.center_size} pixels")
         grasps = np.asarray(grasps, dtype=np.float64).reshape(-1, 4)
         crops = extract_crops(scene, None, grasps, cfg)
         return self.predict(crops, grasp_depths(scene.camera, grasps).astype(np.float32))

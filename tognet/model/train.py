@@ -26,7 +26,13 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from tognet.data.episodes import EpisodeArrays, describe_dataset, read_dataset, split_indices_by_object
+from tognet.data.episodes import (
+    EpisodeArrays,
+    dataset_configs,
+    describe_dataset,
+    read_dataset,
+    split_indices_by_object,
+)
 from tognet.errors import TognetError
 from tognet.model.checkpoint import (
     CheckpointError,
@@ -126,6 +132,33 @@ def evaluate(model: TOGNet, data: _Tensors, config: TrainConfig) -> dict[str, An
     return result
 
 
+def crop_config_from_data(data_dirs: Sequence[str | Path], arch: Any) -> dict[str, Any] | None:
+    """The CropConfig (as a dict) the datasets' crops were made with, from the configs saved beside the
+    data; None when no dataset saved one. Datasets with different crop configs, or crops that do not fit
+    the architecture's crop sizes, raise TrainingError."""
+    from tognet.config import ConfigError
+    from tognet.grasping.crops import CropConfig
+
+    found: dict[str, tuple[Path, CropConfig]] = {}
+    for path, fields in dataset_configs(data_dirs, "CropConfig"):
+        try:
+            cfg = CropConfig.from_dict(fields, where=str(path))
+        except ConfigError as exc:
+            raise TrainingError(f"{path}: not a valid CropConfig ({exc})") from exc
+        found.setdefault(json.dumps(cfg.to_dict(), sort_keys=True), (path, cfg))
+    if not found:
+        return None
+    if len(found) > 1:
+        paths = [str(p) for p, _ in found.values()]
+        raise TrainingError(f"the datasets' crops were made with different crop configs ({paths}); train on "
+                            "data made with one crop config")
+    path, cfg = next(iter(found.values()))
+    if (cfg.size, cfg.center_size) != (arch.crop_size, arch.center_size):
+        raise TrainingError(f"{path}: crops of {cfg.size} px (centre {cfg.center_size}) but the architecture "
+                            f"takes {arch.crop_size} (centre {arch.center_size})")
+    return cfg.to_dict()
+
+
 def _config_differences(a: TrainConfig, b: TrainConfig) -> list[str]:
     da, db = a.to_dict(), b.to_dict()
     return [k for k in da if da[k] != db.get(k) and k not in RESUMABLE_CHANGES]
@@ -219,6 +252,10 @@ def _train(
     if len(episodes) < 2:
         raise TrainingError(f"only {len(episodes)} valid episodes in {list(map(str, data_dirs))}")
     data_desc = describe_dataset(data_dirs)
+    crop_config = crop_config_from_data(data_dirs, config.arch)
+    if crop_config is None:
+        log("note: the datasets saved no CropConfig; the checkpoint cannot tell planners the crops' metric "
+            "extent (they will assume the default CropConfig)")
     train_idx, val_idx = split_indices_by_object(episodes.object_id, config.val_fraction, config.seed)
     train_ep, val_ep = episodes.subset(train_idx), episodes.subset(val_idx)
     split = {
@@ -329,7 +366,7 @@ def _train(
         else:
             bad_epochs += 1
         common = {"model": model, "config": config, "task": task, "data": data_desc, "split": split,
-                  "epoch": epoch + 1, "best": best, "metrics": record}
+                  "epoch": epoch + 1, "best": best, "metrics": record, "crop_config": crop_config}
         if improved:
             save_checkpoint(best_path, **common)
         save_checkpoint(last_path, **common, training={
