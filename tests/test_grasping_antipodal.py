@@ -215,3 +215,21 @@ def test_workspace_restricts_candidates_and_keeps_the_count():
     cands = sample_antipodal(depth, camera, config, np.random.default_rng(0))
     assert len(cands) == 60
     assert np.all(cands.grasps[:, 0] > 0.03)
+
+
+def test_holes_at_an_object_edge_are_filled_from_the_background():
+    # A dropout band straddling the box's long side: filled from the farthest neighbour, the band's
+    # pixels off the box read the table (the outline does not grow; a nearest/nearer fill would
+    # extend the box over the whole band on one side).
+    camera = tilted_camera(0.9)
+    depth = render_depth(camera, [Box.on_table(0.0, 0.0, (0.16, 0.04, 0.03), 0.0)])
+    on_box = depth < np.nanmax(depth) - 0.01
+    rows = np.nonzero(on_box.any(axis=1))[0]
+    band = np.zeros_like(on_box)
+    band[rows[0] - 6 : rows[0] + 6, 200:300] = True  # 12 px across the top edge
+    holey = np.where(band, np.nan, depth)
+    scene = prepare_depth(holey, camera)
+    off_box = band & ~on_box
+    assert off_box.sum() >= 500
+    np.testing.assert_allclose(scene.filled[off_box], depth[off_box], atol=2e-3)
+    assert np.mean(np.abs(scene.filled[band] - depth[band]) > 0.005) < 0.25

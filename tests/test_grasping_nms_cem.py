@@ -108,6 +108,8 @@ def test_cem_prefers_the_higher_of_two_modes():
     )
     result = cem(score, initial, CEMConfig(), rng)
     assert np.linalg.norm(result.best[:2] - b[:2]) < 0.02
+    assert angle_difference(result.best[3], b[3]) < 0.5
+    assert result.best_score > 0.8  # near the higher peak's value (1.0), above the lower one's (0.6)
 
 
 def test_cem_bad_inputs():
@@ -138,3 +140,25 @@ def test_nms_on_box_keeps_grasps_along_its_length():
     keep = nms(cands.grasps, cands.quality, NMSConfig())
     xs = np.sort(cands.grasps[keep, 0])
     assert xs[0] < -0.1 and xs[-1] > 0.1  # spread over the 0.3 m length, not clustered
+
+
+@pytest.mark.parametrize("symmetric", [False, True])
+def test_cem_mixture_wraps_the_angle_around_2pi(symmetric):
+    # Elites straddle phi = 0: half just above 0, half just below 2 pi (or pi, for a symmetric jaw).
+    # A single Gaussian fit on the raw angle would put the mean near pi (pi / 2): the wrong side.
+    rng = np.random.default_rng(3)
+    period = np.pi if symmetric else 2 * np.pi
+    target = np.array([0.0, 0.0, 0.02, 0.0])
+
+    def score(g: np.ndarray) -> np.ndarray:  # sharp in angle, peak at phi = 0 (mod period)
+        da = angle_difference(g[:, 3], target[3], period)
+        return np.exp(-np.sum((g[:, :3] - target[:3]) ** 2, axis=1) / 0.02**2) * np.exp(-((da / 0.1) ** 2))
+
+    phi = np.mod(rng.uniform(-0.3, 0.3, 200), period)
+    initial = np.column_stack([np.zeros((200, 2)), np.full(200, 0.02), phi])
+    result = cem(score, initial, CEMConfig(components=1, symmetric_jaw=symmetric), rng)
+    later = result.grasps[result.iteration == 1]  # sampled from the fit on the straddling elites
+    # Without the circle (or, for a symmetric jaw, without doubling the angle) about 20 % or more of
+    # these samples land far from phi = 0.
+    assert np.mean(angle_difference(later[:, 3], 0.0, period) < 0.25) >= 0.97
+    assert angle_difference(result.best[3], 0.0, period) < 0.05
