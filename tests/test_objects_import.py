@@ -124,3 +124,21 @@ def test_missing_or_empty_folder_is_an_error(tmp_path):
     with pytest.raises(FileNotFoundError, match="no OBJ/STL/PLY files"):
         import_meshes(tmp_path / "empty", tmp_path / "out")
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("keep", [0.3, 0.8])
+def test_a_truncated_obj_is_refused_by_name_and_the_rest_imported(tmp_path, keep):
+    src, out = tmp_path / "src", tmp_path / "out"
+    src.mkdir()
+    trimesh.creation.box(extents=(0.2, 0.03, 0.02)).export(src / "bar.stl")
+    whole = trimesh.creation.cylinder(radius=0.02, height=0.15, sections=24).export(file_type="obj")
+    (src / "cut.obj").write_text(whole[: int(keep * len(whole))])  # cut in the vertices / in the faces
+    generate_set("primitive", "test", 1, out)
+    before = (out / "primitive-test-000000" / "visual.obj").read_bytes()
+    report = import_meshes(src, out)
+    assert [r.object_id for r in report.records] == ["imported-bar"]
+    [(path, message)] = report.errors
+    assert path.name == "cut.obj" and str(src / "cut.obj") in message
+    assert any(reason in message for reason in ("unreadable", "not watertight", "empty")), message
+    assert {r.object_id for r in load_catalog(out)} == {"imported-bar", "primitive-test-000000"}
+    assert (out / "primitive-test-000000" / "visual.obj").read_bytes() == before
