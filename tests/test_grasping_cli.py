@@ -127,6 +127,9 @@ def test_grasps_command_errors(scene_files, tmp_path):
     (tmp_path / "bad.json").write_text("{not json")
     r = run(folder / "depth.npy", tmp_path / "bad.json")
     assert r.exit_code == 2 and "JSON" in r.output
+    (tmp_path / "partial.json").write_text('{"intrinsics": {"width": 512}}')
+    r = run(folder / "depth.npy", tmp_path / "partial.json")
+    assert r.exit_code == 2 and "partial.json" in r.output and "height" in r.output
     r = run(folder / "depth.npy", extra=("--checkpoint", str(tmp_path / "none.pt")))
     assert r.exit_code == 2 and "checkpoint not found" in r.output
     assert not (tmp_path / "x.png").exists()
@@ -166,3 +169,12 @@ def test_render_grasps_cem_marks_the_best_in_red(scene_files, tmp_path):
     assert red(marked) > 50 and red(plain) == 0
     with pytest.raises(Exception, match="--cem needs a scorer"):
         render_grasps(scene, tmp_path / "x.png", config=config, use_cem=True)
+
+
+def test_grasps_command_refuses_a_bad_out_path_before_any_work(scene_files, tmp_path):
+    folder, _, _ = scene_files
+    base = ["grasps", "--depth", str(folder / "depth.npy"), "--camera", str(folder / "camera.json")]
+    r = CliRunner().invoke(app, [*base, "--out", str(tmp_path)])
+    assert r.exit_code == 2 and "is a directory" in r.output
+    r = CliRunner().invoke(app, [*base, "--out", str(tmp_path / "grasps.jpg")])
+    assert r.exit_code == 2 and ".png" in r.output and not (tmp_path / "grasps.jpg").exists()

@@ -105,9 +105,17 @@ def grasps(
     config: Path | None = typer.Option(None, "--config", help="AntipodalConfig JSON (defaults otherwise)."),
 ) -> None:
     """Sample antipodal grasp candidates on a depth image and draw them, coloured by score."""
+    if out.is_dir():
+        raise TognetError(f"--out {out} is a directory; give a .png file name")
+    if out.suffix.lower() != ".png":
+        raise TognetError(f"--out {out}: the drawing is written as PNG; use a .png file name")
     cfg = AntipodalConfig.load(config) if config is not None else AntipodalConfig()
     cfg = cfg.replace(max_candidates=max_candidates)
-    cam = Camera.load(camera)
+    try:
+        cam = Camera.load(camera)
+    except ValueError as exc:
+        message = str(exc)
+        raise TognetError(message if str(camera) in message else f"{camera}: {message}") from exc
     image = load_depth_file(depth)
     try:
         scene = prepare_depth(image, cam)
