@@ -116,6 +116,8 @@ def test_same_id_gives_identical_files(sets, tmp_path):
     assert a == b
     catalog_a, catalog_b = tmp_path / "cat_a" / "catalog.json", tmp_path / "cat_b" / "catalog.json"
     assert catalog_a.read_bytes() == catalog_b.read_bytes()
+    csv_a, csv_b = tmp_path / "cat_a" / "catalog.csv", tmp_path / "cat_b" / "catalog.csv"
+    assert csv_a.read_bytes() == csv_b.read_bytes() and csv_a.read_text().count("\n") == 3
 
 
 def test_ids_and_seeds_never_collide_across_splits_and_kinds():
