@@ -300,3 +300,17 @@ def test_polytope_primitives_rest_on_a_face_in_their_generated_pose(tmp_path):
         for piece in (trimesh.load(p, force="mesh") for p in record.collision_paths):
             assert _support(piece).area > 1e-4, f"{record.object_id}: a polytope stands on < 1 cm^2"
         assert object_stats(record).rests_flat, f"{record.object_id} would tip from its generated pose"
+
+
+def test_complex_objects_never_touch_the_realistic_models():
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, numpy as np\n"
+        "from tognet.objects.complex import make_complex, source_mesh, ComplexConfig\n"
+        "make_complex(np.random.default_rng(3))\n"
+        "print(sorted(m for m in sys.modules if m.startswith('tognet.objects.realistic')))\n"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert result.stdout.strip() == "[]", result.stdout
