@@ -52,7 +52,7 @@ def fill_holes(
     out = depth.copy()
     h, w = out.shape
     open_ = holes.copy()
-    rows, cols = np.nonzero(open_)
+    rows, cols = np.divmod(np.flatnonzero(open_), w)  # much faster than 2-D np.nonzero
     dr = np.array([-1, -1, -1, 0, 0, 1, 1, 1])
     dc = np.array([-1, 0, 1, -1, 1, -1, 0, 1])
     for _ in range(max_passes):
