@@ -67,3 +67,54 @@ def test_cli_errors_are_clear(tmp_path):
     r = runner.invoke(app, ["train", "--data", str(tmp_path), "--task", "x", "--out", str(tmp_path / "o"),
                             "--config", str(cfg)])
     assert r.exit_code == 2 and "did you mean 'epochs'" in r.output
+
+
+def _one_line_error(r, text):
+    assert r.exit_code == 2, r.output
+    lines = [ln for ln in r.output.strip().splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: ") and text in lines[0], r.output
+
+
+def test_new_user_mistakes_get_one_line_errors_and_lose_nothing(tmp_path):
+    data = tmp_path / "data"
+    assert runner.invoke(app, ["data", "synthetic", str(data), "--task", "sweeping", "--episodes", "60",
+                               "--objects", "4"]).exit_code == 0
+    # wrong task, with the progress bar on: the error is the only line (no half-drawn bar around it)
+    r = runner.invoke(app, ["train", "--data", str(data), "--task", "sweping", "--out", str(tmp_path / "o")])
+    _one_line_error(r, "holds task 'sweeping', expected 'sweping'")
+    # --out that is a file
+    (tmp_path / "afile").write_text("mine")
+    r = runner.invoke(app, ["train", "--data", str(data), "--task", "sweeping", "--out",
+                            str(tmp_path / "afile")])
+    _one_line_error(r, "is not a folder")
+    assert (tmp_path / "afile").read_text() == "mine"
+    # a folder holding a finished run's best.pt (last.pt deleted to save space) is not trained over
+    import torch
+
+    run = tmp_path / "run"
+    run.mkdir()
+    torch.save({"precious": torch.ones(2)}, run / "best.pt")
+    before = (run / "best.pt").read_bytes()
+    r = runner.invoke(app, ["train", "--data", str(data), "--task", "sweeping", "--out", str(run)])
+    _one_line_error(r, "already holds a training run (best.pt)")
+    assert (run / "best.pt").read_bytes() == before
+    # --resume without a previous run
+    r = runner.invoke(app, ["train", "--data", str(data), "--task", "sweeping", "--out",
+                            str(tmp_path / "new"), "--resume"])
+    _one_line_error(r, "nothing to resume")
+    # corrupt checkpoints: one short line, not torch's advice
+    (tmp_path / "bad.pt").write_bytes(b"\x80\x02garbage")
+    r = runner.invoke(app, ["model", "info", str(tmp_path / "bad.pt")])
+    _one_line_error(r, "not a readable checkpoint")
+    (tmp_path / "trunc.pt").write_bytes(b"PK\x03\x04" + b"\x00" * 100)
+    r = runner.invoke(app, ["model", "eval", str(tmp_path / "trunc.pt"), "--data", str(data)])
+    _one_line_error(r, "not a readable checkpoint")
+    r = runner.invoke(app, ["model", "info", str(run.parent)])
+    _one_line_error(r, "is a folder, not a checkpoint file")
+    # an empty folder is not a dataset
+    (tmp_path / "empty").mkdir()
+    _one_line_error(runner.invoke(app, ["data", "info", str(tmp_path / "empty")]), "not an episode dataset")
+    r = runner.invoke(app, ["train", "--data", str(tmp_path / "empty"), "--task", "sweeping", "--out",
+                            str(tmp_path / "o")])
+    _one_line_error(r, "no shards found")
+    assert not (tmp_path / "o").exists()

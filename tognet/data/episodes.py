@@ -510,25 +510,28 @@ def read_dataset(
     dirs = expand_dataset_dirs(dirs)
     if not dirs:
         raise DatasetError("no dataset folders given")
-    parts: list[EpisodeArrays] = []
     tasks: dict[str, Path] = {}
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(desc="reading shards", unit="shard", mininterval=1.0)
-    for folder in dirs:
+    paths: list[Path] = []
+    for folder in dirs:  # check every folder (exists, task, shards) before reading anything
         folder_task = dataset_task(folder) if folder.is_dir() else None
         if folder_task is not None:
             tasks.setdefault(folder_task, folder)
             if task is not None and folder_task != task:
                 raise DatasetError(f"{folder}: holds task {folder_task!r}, expected {task!r}")
-        paths = shard_paths(folder)
-        if not paths:
+        found = shard_paths(folder)
+        if not found:
             raise DatasetError(f"{folder}: no shards found")
+        paths.extend(found)
+    if len(tasks) > 1:
+        raise DatasetError(f"dataset folders hold different tasks: {sorted(tasks)}")
+    parts: list[EpisodeArrays] = []
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(paths), desc="reading shards", unit="shard", mininterval=1.0, leave=False)
+    try:
         for path in paths:
-            if bar is not None:
-                bar.update(1)
             try:
                 episodes, meta = read_shard(path)
             except DatasetError as exc:
@@ -536,13 +539,15 @@ def read_dataset(
                     raise
                 warnings.warn(f"skipping bad shard: {exc}", stacklevel=2)
                 continue
+            finally:
+                if bar is not None:
+                    bar.update(1)
             if task is not None and meta.get("task") not in (None, task):
                 raise DatasetError(f"{path}: shard holds task {meta.get('task')!r}, expected {task!r}")
             parts.append(episodes)
-    if bar is not None:
-        bar.close()
-    if len(tasks) > 1:
-        raise DatasetError(f"dataset folders hold different tasks: {sorted(tasks)}")
+    finally:
+        if bar is not None:
+            bar.close()
     episodes = EpisodeArrays.concatenate(parts)
     if not keep_invalid:
         episodes = episodes.subset(episodes.valid.astype(bool))

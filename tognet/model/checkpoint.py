@@ -111,13 +111,15 @@ def save_checkpoint(
 def load_checkpoint(path: str | Path, map_location: str | torch.device = "cpu") -> dict[str, Any]:
     """Read and validate a checkpoint; adds ``config_obj`` (TrainConfig). Raises CheckpointError."""
     path = Path(path)
+    if path.is_dir():
+        raise CheckpointError(f"{path}: is a folder, not a checkpoint file (e.g. {path / 'best.pt'})")
     if not path.is_file():
         raise CheckpointError(f"{path}: checkpoint file not found")
     try:
         payload = torch.load(path, map_location=map_location, weights_only=True)
     except Exception as exc:  # torch raises many types for a bad file (pickle, zip, runtime errors)
         raise CheckpointError(
-            f"{path}: not a readable checkpoint (corrupt or truncated?): {type(exc).__name__}: {exc}"
+            f"{path}: not a readable checkpoint (corrupt or truncated?): {_short_reason(exc)}"
         ) from exc
     if not isinstance(payload, dict) or payload.get("format") != FORMAT:
         raise CheckpointError(f"{path}: not a tognet checkpoint (no '{FORMAT}' header)")
@@ -160,6 +162,16 @@ def load_checkpoint(path: str | Path, map_location: str | torch.device = "cpu") 
         payload["crop_config_obj"] = crop
     payload["config_obj"] = config
     return payload
+
+
+def _short_reason(exc: BaseException) -> str:
+    """One short line for torch's (long, multi-line, advice-laden) load errors."""
+    text = str(exc)
+    if "Weights only load failed" in text:
+        return f"{type(exc).__name__}: not a torch file, or it holds objects other than data and tensors"
+    first = text.strip().splitlines()[0] if text.strip() else ""
+    first = first.split(". ")[0]
+    return f"{type(exc).__name__}: {first[:120]}" if first else type(exc).__name__
 
 
 def _missing_keys(data: Any, reference: dict[str, Any], prefix: str = "") -> list[str]:

@@ -101,20 +101,33 @@ def eval_cmd(
 
 @user_errors
 def data_info_cmd(
-    folder: Path = typer.Argument(..., help="An episode dataset folder (with manifest.json)."),
+    folder: Path = typer.Argument(..., help="An episode dataset folder (with manifest.json), or a folder of "
+                                  "them (e.g. one per worker)."),
     check: bool = typer.Option(False, "--check", help="Also read every shard (finds corrupt ones)."),
 ) -> None:
     """Print a dataset's manifest totals; with --check read every shard."""
     from tqdm import tqdm
 
-    from tognet.data.episodes import DatasetError, describe_dataset, read_shard, shard_paths
+    from tognet.data.episodes import (
+        DatasetError,
+        describe_dataset,
+        expand_dataset_dirs,
+        read_shard,
+        shard_paths,
+    )
 
-    desc = describe_dataset([folder])["datasets"][0]
-    typer.echo(json.dumps({"dir": desc["dir"], "task": desc["task"], "shards": len(desc["shards"]),
-                           "totals": desc["totals"]}, indent=2))
+    folders = expand_dataset_dirs([folder])
+    descs = describe_dataset(folders)["datasets"]
+    for d in descs:
+        if not d["shards"] and d["task"] is None:
+            raise DatasetError(f"{d['dir']}: not an episode dataset (no manifest.json and no shards)")
+    for d in descs:
+        typer.echo(json.dumps({"dir": d["dir"], "task": d["task"], "shards": len(d["shards"]),
+                               "totals": d["totals"]}, indent=2))
     if check:
         bad = []
-        for path in tqdm(shard_paths(folder), desc="checking shards", unit="shard"):
+        paths = [p for f in folders for p in shard_paths(f)]
+        for path in tqdm(paths, desc="checking shards", unit="shard"):
             try:
                 read_shard(path)
             except DatasetError as exc:

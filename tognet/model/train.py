@@ -237,12 +237,17 @@ def _train(
     config = config or TrainConfig()
     out = Path(out)
     last_path, best_path = out / "last.pt", out / "best.pt"
-    if last_path.exists() and not resume:
-        raise TrainingError(f"{out}: already holds a training run (last.pt); pass --resume or another --out")
+    if out.exists() and not out.is_dir():
+        raise TrainingError(f"{out}: exists and is not a folder; pass another --out")
+    if not resume and (last_path.exists() or best_path.exists()):
+        found = "last.pt" if last_path.exists() else "best.pt"
+        raise TrainingError(f"{out}: already holds a training run ({found}); pass --resume or another --out")
     if resume and not last_path.exists():
-        raise TrainingError(f"{last_path}: nothing to resume (no last.pt)")
+        raise TrainingError(f"{last_path}: nothing to resume (no last.pt in {out})")
     if config.batch_size < 2:
         raise TrainingError("batch_size must be >= 2 (batch norm needs two samples)")
+    # read the run to resume before the (long) data reading, so a bad last.pt fails at once
+    payload = load_checkpoint(last_path, map_location="cpu") if resume else None
 
     seed_everything(config.seed, config.deterministic, config.num_threads)
     tune_allocator()
@@ -281,8 +286,7 @@ def _train(
     bad_epochs = 0
     start_epoch = 0
 
-    if resume:
-        payload = load_checkpoint(last_path, map_location=device)
+    if payload is not None:
         old: TrainConfig = payload["config_obj"]
         diff = _config_differences(old, config)
         if diff:
