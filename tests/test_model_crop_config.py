@@ -63,3 +63,15 @@ def test_crop_config_mismatches_are_refused(run, tmp_path):
     payload.pop("crop_config")
     torch.save(payload, tmp_path / "old.pt")
     assert TOGNetPredictor.load(tmp_path / "old.pt").crop_config is None
+
+
+def test_eval_refuses_data_made_with_other_crops(run, tmp_path):
+    from tognet.model.checkpoint import CheckpointError
+    from tognet.model.train import evaluate_checkpoint
+
+    same = write_synthetic_dataset(tmp_path / "same", task="sweeping", n=30, seed=5, configs={"crop": CROP})
+    assert evaluate_checkpoint(run.best_path, [same])["count"] == 30
+    other = write_synthetic_dataset(tmp_path / "other", task="sweeping", n=30, seed=5,
+                                    configs={"crop": CropConfig()})
+    with pytest.raises(CheckpointError, match=r"another CropConfig.*\['extent'\]"):
+        evaluate_checkpoint(run.best_path, [other])

@@ -415,11 +415,18 @@ def _write_metrics(out: Path, history: list[dict[str, Any]], best: dict[str, Any
 def evaluate_checkpoint(path: str | Path, data_dirs: Sequence[str | Path], *, skip_bad: bool = False,
                         device: str | None = "cpu") -> dict[str, Any]:
     """Loss components and per-head metrics of a checkpoint on every valid episode of ``data_dirs``
-    (e.g. episodes on held-out test objects). The data must be of the checkpoint's task."""
+    (e.g. episodes on held-out test objects). The data must be of the checkpoint's task, and made with
+    the checkpoint's CropConfig when both record one."""
     payload = load_checkpoint(path)
     config: TrainConfig = payload["config_obj"]
     dev = select_device(device)
     model = model_from_checkpoint(payload, path).to(dev)
+    data_crop = crop_config_from_data(data_dirs, config.arch)
+    trained_crop = payload.get("crop_config")
+    if data_crop is not None and trained_crop is not None and data_crop != trained_crop:
+        diff = sorted(k for k in data_crop if data_crop[k] != trained_crop.get(k))
+        raise CheckpointError(f"{path}: trained on crops made with another CropConfig than the data's "
+                              f"(differs in {diff}); evaluate on data made with the checkpoint's crops")
     episodes = read_dataset(data_dirs, task=payload["task"], skip_bad=skip_bad)
     result = evaluate(model, _Tensors(episodes, dev), config)
     result["objects"] = int(len(np.unique(episodes.object_id)))
