@@ -42,6 +42,11 @@ def register(app: typer.Typer) -> None:
         from tognet.sim import SimConfig, Simulator
         from tognet.sim.tools import make_test_tools
 
+        if task not in ("sweeping", "hammering", "grasping"):
+            raise ValueError(f"unknown --task '{task}'; known: sweeping, hammering, grasping")
+        for path, suffix, name in ((gif, ".gif", "--gif"), (depth_png, ".png", "--depth-png")):
+            if path is not None and (path.suffix.lower() != suffix or path.is_dir()):
+                raise ValueError(f"{name} must name a {suffix} file, got '{path}'")
         cfg = SimConfig.load(config) if config else SimConfig()
         with tempfile.TemporaryDirectory() as tmp:
             if objects is None:
