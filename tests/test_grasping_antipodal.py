@@ -233,3 +233,32 @@ def test_holes_at_an_object_edge_are_filled_from_the_background():
     assert off_box.sum() >= 500
     np.testing.assert_allclose(scene.filled[off_box], depth[off_box], atol=2e-3)
     assert np.mean(np.abs(scene.filled[band] - depth[band]) > 0.005) < 0.25
+
+
+def test_open_fingers_never_land_on_a_thin_rib_crossing_the_handle():
+    # A 6 mm rib, 3 cm tall, crosses a handle (a plus shape). The rib runs along the jaw axis of the
+    # grasps across the handle, so the jaw-axis scan cannot see it: only the landing-zone samples across
+    # each 4 cm pad can. With samples 2 cm apart about 7 % of the candidates put a pad on the rib.
+    camera = tilted_camera(0.9, tilt=(0.01, -0.01))
+    rib_w, rib_h = 0.006, 0.03
+    shapes = [
+        Box.on_table(0.0, 0.0, (0.24, 0.025, 0.025), 0.0),
+        Box.on_table(0.0, 0.0, (rib_w, 0.14, rib_h), 0.0),
+    ]
+    config = AntipodalConfig()
+    cands = sample_antipodal(render_depth(camera, shapes), camera, config, np.random.default_rng(0))
+    assert len(cands) >= 100
+    g = cands.grasps
+    axis = np.stack([np.cos(g[:, 3]), np.sin(g[:, 3])], axis=1)
+    normal = np.stack([-axis[:, 1], axis[:, 0]], axis=1)
+    along = config.max_width / 2 + np.linspace(0.0, config.finger_offset, 6)
+    along = np.concatenate([-along, along])
+    across = np.linspace(-0.5, 0.5, 41) * config.finger_width
+    pads = (
+        g[:, None, None, :2]
+        + along[None, :, None, None] * axis[:, None, None, :]
+        + across[None, None, :, None] * normal[:, None, None, :]
+    )  # dense pad footprints (N, 12, 41, 2)
+    on_rib = (np.abs(pads[..., 0]) < rib_w / 2) & (np.abs(pads[..., 1]) < 0.07)
+    lands = on_rib.any(axis=(1, 2)) & (g[:, 2] - config.pad_height / 2 < rib_h)
+    assert lands.sum() == 0
