@@ -13,7 +13,14 @@ Prepare an image once with :func:`prepare_depth` and pass the :class:`DepthScene
     def score_fn(g):                                                     # any (M, 4) -> (M,)
         c = extract_crops(scene, None, g, CropConfig())
         return net(c, center_crops(c), grasp_depths(camera, g))
-    best = cem(score_fn, cands.grasps, CEMConfig(), rng).best
+    best = cem(score_fn, cands.grasps, CEMConfig(), rng).best           # needs >= 1 initial grasp
+
+No candidates (an empty table, an object wider than the opening) is an explicit empty result all the
+way through: ``sample_antipodal`` returns an empty :class:`GraspCandidates` (``len() == 0``, arrays of
+shape (0, 4), (0, 2), ...), ``extract_crops`` of 0 grasps gives (0, 64, 64), ``grasp_depths`` (0,),
+``nms`` an empty index array. ``cem`` has nothing to start from and raises ValueError ("cem needs
+initial grasps of shape (N >= 1, 4)"), so check ``len(cands)`` first. Bad images (wrong shape or
+dtype, millimetres, all holes) raise :class:`tognet.geometry.DepthImageError` naming the problem.
 """
 
 from tognet.grasping.antipodal import AntipodalConfig, GraspCandidates, grasp_depths, sample_antipodal
