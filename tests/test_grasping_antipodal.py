@@ -262,3 +262,20 @@ def test_open_fingers_never_land_on_a_thin_rib_crossing_the_handle():
     on_rib = (np.abs(pads[..., 0]) < rib_w / 2) & (np.abs(pads[..., 1]) < 0.07)
     lands = on_rib.any(axis=(1, 2)) & (g[:, 2] - config.pad_height / 2 < rib_h)
     assert lands.sum() == 0
+
+
+def test_contacts_keep_away_from_corners_where_the_normal_is_undefined():
+    # Edge pixels whose window gradients disagree (corners) are dropped; without that filter about
+    # 22 % of the candidates on a 12 x 4 cm box have a contact within 8 mm of an end, with it ~5 %.
+    camera = tilted_camera(0.9, tilt=(0.03, -0.02), yaw=0.1)
+    length, n_near, n_all = 0.12, 0, 0
+    for seed in range(3):
+        rng = np.random.default_rng(seed)
+        yaw = rng.uniform(0, np.pi)
+        depth = render_depth(camera, [Box.on_table(0.0, 0.0, (length, 0.04, 0.03), yaw)])
+        cands = sample_antipodal(depth, camera, AntipodalConfig(), rng)
+        along = _local(cands.contacts[:, :, :2], 0.0, 0.0, yaw)[:, :, 0]
+        n_near += int(np.sum((np.abs(np.abs(along) - length / 2) < 0.008).any(axis=1)))
+        n_all += len(cands)
+    assert n_all >= 300
+    assert n_near / n_all < 0.12
