@@ -65,6 +65,10 @@ def test_outputs_and_self_description(trained):
     assert payload["data"]["datasets"][0]["shards"][0]["sha256"]
     assert payload["code"]["tognet"]
     assert payload["split"]["train_objects"] + payload["split"]["val_objects"] == 12
+    from tognet.model.checkpoint import describe
+    from tognet.model.network import TOGNet
+
+    assert describe(payload)["parameters"] == sum(p.numel() for p in TOGNet(TINY).parameters())
 
 
 def test_checkpoint_round_trip_identical_outputs(trained):

@@ -201,8 +201,9 @@ def describe(payload: dict[str, Any]) -> dict[str, Any]:
     """The self-description of a loaded checkpoint (everything but tensors), JSON-ready."""
     hidden = ("state_dict", "training", "config_obj", "crop_config_obj")
     out = {k: v for k, v in payload.items() if k not in hidden}
+    buffers = {"crop_mean", "crop_std", "z_mean", "z_std", "action_mean", "action_std"}
     out["parameters"] = int(sum(v.numel() for k, v in payload["state_dict"].items()
                                 if not k.endswith(("running_mean", "running_var", "num_batches_tracked"))
-                                and not k.startswith(("crop_", "z_", "action_"))))
+                                and k not in buffers))
     out["resumable"] = payload.get("training") is not None
     return out
