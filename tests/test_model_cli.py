@@ -44,6 +44,7 @@ def test_end_to_end_train_and_info(tmp_path):
     r = runner.invoke(app, ["model", "eval", str(out / "best.pt"), "--data", str(test), "--out",
                             str(tmp_path / "eval.json")])
     assert r.exit_code == 0, r.output
+    assert "reading shards" in r.output and "evaluating" in r.output  # progress bars (stderr)
     ev = json.loads((tmp_path / "eval.json").read_text())
     assert ev["count"] == 50 and ev["task"] == "hammering" and "auc" in ev["metrics"]["grasp"]
     r = runner.invoke(app, ["model", "info", "--json", str(out / "last.pt")])

@@ -87,11 +87,12 @@ def eval_cmd(
     checkpoint: Path = typer.Argument(..., help="A checkpoint file (best.pt or last.pt)."),
     data: list[Path] = typer.Option(..., "--data", help="Episode dataset folder (repeat for several)."),
     out: Path | None = typer.Option(None, "--out", help="Write the metrics to this JSON file too."),
+    progress: bool = typer.Option(True, "--progress/--no-progress", help="Show tqdm progress bars."),
 ) -> None:
     """Loss and per-head metrics (AUC, accuracy, ECE, action error) of a checkpoint on episode data."""
     from tognet.model.train import evaluate_checkpoint
 
-    result = evaluate_checkpoint(checkpoint, data)
+    result = evaluate_checkpoint(checkpoint, data, progress=progress)
     text = json.dumps(result, indent=2)
     if out is not None:
         out.parent.mkdir(parents=True, exist_ok=True)

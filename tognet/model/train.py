@@ -102,14 +102,15 @@ def _as_jsonable(x: Any) -> Any:
 
 
 @torch.no_grad()
-def evaluate(model: TOGNet, data: _Tensors, config: TrainConfig) -> dict[str, Any]:
+def evaluate(model: TOGNet, data: _Tensors, config: TrainConfig, progress: bool = False) -> dict[str, Any]:
     """Validation loss (components, reduced over the whole set as in training) and per-head metrics."""
     model.eval()
     n = len(data)
     sums = torch.zeros(3, dtype=torch.float64)
     counts = torch.zeros(2, dtype=torch.float64)
     q_g, q_tg, act = [], [], []
-    for lo in range(0, n, config.eval_batch_size):
+    for lo in tqdm(range(0, n, config.eval_batch_size), desc="evaluating", unit="batch", disable=not progress,
+                   leave=False, mininterval=1.0):
         sl = slice(lo, lo + config.eval_batch_size)
         out = model(data.crop[sl].float(), data.z[sl])
         a_pred = model.denormalize_action(out["action_norm"])
@@ -413,7 +414,7 @@ def _write_metrics(out: Path, history: list[dict[str, Any]], best: dict[str, Any
 
 
 def evaluate_checkpoint(path: str | Path, data_dirs: Sequence[str | Path], *, skip_bad: bool = False,
-                        device: str | None = "cpu") -> dict[str, Any]:
+                        device: str | None = "cpu", progress: bool = False) -> dict[str, Any]:
     """Loss components and per-head metrics of a checkpoint on every valid episode of ``data_dirs``
     (e.g. episodes on held-out test objects). The data must be of the checkpoint's task, and made with
     the checkpoint's CropConfig when both record one."""
@@ -427,8 +428,8 @@ def evaluate_checkpoint(path: str | Path, data_dirs: Sequence[str | Path], *, sk
         diff = sorted(k for k in data_crop if data_crop[k] != trained_crop.get(k))
         raise CheckpointError(f"{path}: trained on crops made with another CropConfig than the data's "
                               f"(differs in {diff}); evaluate on data made with the checkpoint's crops")
-    episodes = read_dataset(data_dirs, task=payload["task"], skip_bad=skip_bad)
-    result = evaluate(model, _Tensors(episodes, dev), config)
+    episodes = read_dataset(data_dirs, task=payload["task"], skip_bad=skip_bad, progress=progress)
+    result = evaluate(model, _Tensors(episodes, dev), config, progress=progress)
     result["objects"] = int(len(np.unique(episodes.object_id)))
     result["task"] = payload["task"]
     result["checkpoint"] = str(path)
