@@ -1,7 +1,7 @@
 """Grasp-candidate pipeline speed: antipodal sampling on a 512 x 424 depth image + 200 crops.
 
 Target (issue 4): sampling and crop extraction together under 20 ms on the dev machine.
-Run: .venv/bin/python benchmarks/bench_grasping.py [--repeats 50]
+Run: .venv/bin/python benchmarks/bench_grasping.py [--repeats 50] [--pin 1]
 """
 
 from __future__ import annotations
@@ -69,7 +69,16 @@ def _bench_image(label, image, camera, a_cfg, c_cfg, repeats) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--repeats", type=int, default=50, help="Timed repetitions per stage.")
+    parser.add_argument(
+        "--pin",
+        type=int,
+        default=None,
+        help="Pin the process to this CPU core (os.sched_setaffinity) and use one torch thread.",
+    )
     args = parser.parse_args()
+    if args.pin is not None:
+        os.sched_setaffinity(0, {args.pin})
+        torch.set_num_threads(1)
 
     camera = tilted_camera(0.9, x=0.02, y=-0.03, tilt=(np.pi / 70, -np.pi / 90))
     shapes = t_shape(0.02, 0.01, 0.6, handle=(0.26, 0.03, 0.03), head=(0.04, 0.12, 0.035))
@@ -87,7 +96,7 @@ def main() -> None:
     )
     print(
         f"image {clean.shape[1]} x {clean.shape[0]}, {args.repeats} repeats, ms; "
-        f"load average {os.getloadavg()[0]:.2f}"
+        f"load average {os.getloadavg()[0]:.2f}; cores {sorted(os.sched_getaffinity(0))}"
     )
     for label, image in (("clean", clean), ("2% holes", holey)):
         _bench_image(label, image, camera, a_cfg, c_cfg, args.repeats)
