@@ -99,6 +99,10 @@ def test_new_user_mistakes_get_one_line_errors_and_lose_nothing(tmp_path):
     r = runner.invoke(app, ["train", "--data", str(data), "--task", "sweeping", "--out", str(run)])
     _one_line_error(r, "already holds a training run (best.pt)")
     assert (run / "best.pt").read_bytes() == before
+    # a mistyped device
+    r = runner.invoke(app, ["train", "--data", str(data), "--task", "sweeping", "--out", str(tmp_path / "o"),
+                            "--device", "cdua"])
+    _one_line_error(r, "device 'cdua': not a device")
     # --resume without a previous run
     r = runner.invoke(app, ["train", "--data", str(data), "--task", "sweeping", "--out",
                             str(tmp_path / "new"), "--resume"])

@@ -40,7 +40,12 @@ def select_device(device: str | None = "auto") -> torch.device:
     """'auto'/None -> CUDA when torch sees one, else CPU; 'cpu' or 'cuda[:k]' as given."""
     if device in (None, "auto"):
         return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-    dev = torch.device(device)
+    try:
+        dev = torch.device(device)
+    except (RuntimeError, TypeError) as exc:
+        raise ValueError(f"device {device!r}: not a device; use 'auto', 'cpu' or 'cuda' (or 'cuda:k')") from exc
+    if dev.type not in ("cpu", "cuda"):
+        raise ValueError(f"device {device!r}: tognet runs on 'cpu' or 'cuda' only")
     if dev.type == "cuda" and not torch.cuda.is_available():
         raise ValueError(f"device {device!r} requested but torch sees no CUDA device")
     return dev
