@@ -43,7 +43,7 @@ def select_device(device: str | None = "auto") -> torch.device:
     try:
         dev = torch.device(device)
     except (RuntimeError, TypeError) as exc:
-        raise ValueError(f"device {device!r}: not a device; use 'auto', 'cpu' or 'cuda' (or 'cuda:k')") from exc
+        raise ValueError(f"device {device!r}: not a device; use 'auto', 'cpu' or 'cuda[:k]'") from exc
     if dev.type not in ("cpu", "cuda"):
         raise ValueError(f"device {device!r}: tognet runs on 'cpu' or 'cuda' only")
     if dev.type == "cuda" and not torch.cuda.is_available():
