@@ -201,3 +201,11 @@ def test_validation_loss_is_the_training_loss(trained, dataset, reduction):
                           data.s_g, data.s_t, data.action, loss_cfg)
     for key in ("loss", "grasp", "task", "action"):
         assert result[key] == pytest.approx(float(ref[key]), rel=1e-4), key
+
+
+def test_package_exports_the_training_function_not_the_module():
+    import tognet.model
+    from tognet.model import train_model
+    from tognet.model.train import train as train_function
+
+    assert train_model is train_function and callable(tognet.model.train_model)
