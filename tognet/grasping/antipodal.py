@@ -44,13 +44,21 @@ class AntipodalConfig(Config):
     depth_grad_thresh: float = doc(
         0.0025, "Depth-gradient magnitude (m per pixel, central differences) above which a pixel is an edge."
     )
+    edge_smoothing: float = doc(
+        1.0,
+        "Gaussian sigma (pixels) applied to the depth image before the gradients for edges and normals "
+        "(contact depths, heights and the scans use the unsmoothed image); 0 = off. Without it, depth noise "
+        "of 2 mm (a Kinect-class sensor) floods the edge threshold with false edges and leaves no "
+        "candidates (1 mm: half of them); with 1.0, 3 mm noise still gives the full 200. Costs ~0.5 ms.",
+    )
     normal_radius: int = doc(
         3, "Half size (pixels) of the Gaussian-weighted window averaging the depth gradient for normals."
     )
     min_normal_coherence: float = doc(
-        0.85,
+        0.93,
         "Edge pixels whose window gradients agree less than this (|mean| / mean length) are dropped: "
-        "near corners the normal is undefined.",
+        "near corners the normal is undefined. 0.93 with edge_smoothing 1.0: ~2 % of the candidates on a "
+        "12 x 4 cm box touch within 8 mm of an end (0.85 without smoothing: ~5 %).",
     )
     min_quality: float = doc(
         0.1,
@@ -181,6 +189,27 @@ def _lookup(image: NDArray[np.float32], u: NDArray, v: NDArray) -> NDArray[np.fl
     return image[vi, ui]
 
 
+def _gaussian_smooth(image: NDArray[np.float32], sigma: float) -> NDArray[np.float32]:
+    """Separable Gaussian blur (kernel radius round(2 sigma), edges replicated), float32.
+
+    Equal to ``scipy.ndimage.gaussian_filter(image, sigma, truncate=2, mode="nearest")`` up to
+    rounding, but ~3.5x faster on a 512 x 424 image (shifted-slice sums instead of a generic filter).
+    """
+    r = max(int(2 * sigma + 0.5), 1)  # scipy's radius for truncate=2
+    k = np.exp(-0.5 * (np.arange(-r, r + 1) / sigma) ** 2)
+    k = (k / k.sum()).astype(np.float32)
+    h, w = image.shape
+    p = np.pad(image, ((0, 0), (r, r)), mode="edge")
+    rows = p[:, r : r + w] * k[r]
+    for i in range(1, r + 1):
+        rows += (p[:, r - i : r - i + w] + p[:, r + i : r + i + w]) * k[r + i]
+    p = np.pad(rows, ((r, r), (0, 0)), mode="edge")
+    out = p[r : r + h] * k[r]
+    for i in range(1, r + 1):
+        out += (p[r - i : r - i + h] + p[r + i : r + i + h]) * k[r + i]
+    return out
+
+
 def _edge_pixels(filled: NDArray[np.float32], thresh: float) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """Rows and columns of pixels whose depth gradient exceeds ``thresh``, and the gradient images."""
     gx = np.zeros_like(filled)
@@ -233,7 +262,8 @@ def sample_antipodal(
     filled = scene.filled
     h, w = filled.shape
 
-    rows, cols, gx, gy = _edge_pixels(filled, config.depth_grad_thresh)
+    smooth = _gaussian_smooth(filled, config.edge_smoothing) if config.edge_smoothing > 0 else filled
+    rows, cols, gx, gy = _edge_pixels(smooth, config.depth_grad_thresh)
     # Ignore the outermost image border (no central difference there).
     inner = (rows > 0) & (rows < h - 1) & (cols > 0) & (cols < w - 1)
     rows, cols = rows[inner], cols[inner]
@@ -243,6 +273,12 @@ def sample_antipodal(
     nu, nv = ex / gnorm, ey / gnorm
     ahead = filled[rows + np.rint(nv).astype(np.intp), cols + np.rint(nu).astype(np.intp)]
     near = ahead > filled[rows, cols] + np.float32(0.5 * config.depth_grad_thresh)
+    if smooth is not filled:
+        # Smoothing widens the edge band; keep only pixels with a step in the raw image too (noise alone
+        # rarely makes one next to a smoothed edge), so the pair count stays that of the raw edges.
+        rgx = (filled[rows, cols + 1] - filled[rows, cols - 1]) * np.float32(0.5)
+        rgy = (filled[rows + 1, cols] - filled[rows - 1, cols]) * np.float32(0.5)
+        near &= rgx * rgx + rgy * rgy > np.float32(config.depth_grad_thresh**2)
     rows, cols = rows[near], cols[near]
     if rows.size < 2:
         return GraspCandidates.empty()
