@@ -7,7 +7,8 @@ lets it settle, disturbs the camera, takes one depth image by ray casting and sa
 1. grasp: the gripper appears ``approach_height`` above the (noisy) grasp, descends (a finger or the
    palm pressing into the object on the way down fails the grasp), closes with a force limit, lifts the
    grasp centre to ``lift_height`` (at least ``min_lift``) and holds. S_G: both fingers touch the tool and
-   its lowest point is clear of the table.
+   its lowest point is clear of the table. ``info["in_hand"]`` is the tool's (3, 4) pose in the gripper
+   frame after the hold (x = jaw axis), for oracles and diagnostics.
 2. transport: to ``start_clearance`` above the start pose (task reference + nominal offset + action, yaw
    nominal + a_phi, with noise), then down to it. Touching a prop on the way is COLLISION_BEFORE_MOTION;
    a tool no longer between both fingers is DROPPED.
@@ -596,6 +597,7 @@ class Simulator:
         self._wait(g.hold_time)
         held = self._held()
         lifted = self._object_clear()
+        info["in_hand"] = self._in_hand().tolist()
         info["object_lift"] = float(d.xipos[self._obj_body][2] - self._scene["object_com"][2])
         grasp_ok = held and lifted
         if not grasp_ok:
@@ -630,6 +632,15 @@ class Simulator:
         if not self._held():
             return TrialResult(True, False, True, FailureReason.DROPPED, info)
         return self._primitive(info)
+
+    def _in_hand(self) -> NDArray[np.float64]:
+        """(3, 4) pose [R | t] of the object's body in the gripper frame (x = jaw axis, z up, origin at the
+        grasp centre), as it hangs in the hand now."""
+        d = self.data
+        gpos = np.array([d.qpos[self._qadr[n]] for n in ("grip_x", "grip_y", "grip_z")])
+        back = rot_z(-float(d.qpos[self._qadr["grip_yaw"]]))
+        pos, rot = self.object_pose()
+        return np.column_stack([back @ rot, back @ (pos - gpos)])
 
     def _watch_landing(self) -> None:
         """During the approach: a finger or the palm pressing into the object means it landed on it."""

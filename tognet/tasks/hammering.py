@@ -12,6 +12,19 @@ Task description
     mass far from the grasp (a heavy head held by the far end of a handle). The start yaw is absolute,
     so the grasp decides where the tool points at impact.
 
+Grasp orientation (phi versus phi + pi)
+    The gripper's yaw is the grasp's phi exactly (not modulo pi) and the start yaw is absolute, so the
+    two jaw orientations of one grasp placement (the antipodal sampler draws either) hold the tool on
+    opposite sides of the hand; both are executable and they are different trials. The striking part
+    must point along world -y from the gripper when the swing reaches the peg, so with the start yaw in
+    nominal_yaw + [-pi/4, pi/4] only a part lying within 45 degrees of the gripper's -y axis can strike.
+    Of phi and phi + pi, exactly one puts a given part there (the other turns it to +y, and no action in
+    the box brings it back: measured, the far-end grasp of the T hammer hammers with one and misses with
+    every oracle action with the other, tests/test_sim_oracle.py). So the box is enough when the grasp
+    picks the orientation: with that choice, anything within 45 degrees of the axis across the jaws (where
+    a tool grasped across its width extends) can be made to strike; parts along the jaw axis cannot. A
+    scorer must therefore tell phi from phi + pi (the grasp-aligned crop does: it turns by 180 degrees).
+
 Randomizations
     Slot position (``slot_x``, ``slot_y``); the slot's orientation is fixed.
 

@@ -8,6 +8,14 @@ Task description
     edge. The start yaw is absolute (``nominal_yaw + a_phi``), so the grasp decides how the tool lies across
     the cans' path: a long edge across the path catches both cans, a tool held along the path catches one.
 
+Grasp orientation (phi versus phi + pi)
+    The gripper's yaw is the grasp's phi exactly (not modulo pi), so phi and phi + pi put the tool on
+    opposite sides of the hand, which decides whether it trails or leads the gripper along the stroke.
+    Both are executable. At a_phi = 0 the jaw axis lies along world x, across the path; a_phi in +-pi/4
+    turns it by at most 45 degrees. So a long edge lies across the cans' path only when it runs roughly
+    along the jaw axis (a part branching off it is grasped, as an L held by its short end); a straight
+    bar grasped across its width stays within 45 degrees of along the path, whichever of phi or phi + pi.
+
 Randomizations
     Number of cans (1 or 2, ``n_cans``), their x/y positions (in ``can_x``, ``can_y``; two cans are
     ``can_spacing`` apart in x), their masses (``can_mass``).
