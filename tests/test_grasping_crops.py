@@ -167,3 +167,15 @@ def test_crops_match_an_independent_projection_of_the_crop_grid():
     diff = np.abs(crops - ref)[inside]
     assert np.percentile(diff, 99.9) < 1e-4 and diff.max() < 2e-3
     assert np.mean(ref < grasps[:, 2, None, None] - 0.005) > 0.01  # the crops do see the objects
+
+
+def test_a_prepared_scene_refuses_a_different_camera():
+    camera = tilted_camera(0.9)
+    scene = prepare_depth(render_depth(camera, []), camera)
+    assert prepare_depth(scene, camera) is scene
+    same_pose = Camera(CameraIntrinsics(512, 424, 300.0, 300.0, 256.0, 212.0), camera.pose)
+    with pytest.raises(ValueError, match="intrinsics differ"):
+        extract_crops(scene, same_pose, np.zeros((1, 4)), CropConfig())
+    moved = tilted_camera(0.8)
+    with pytest.raises(ValueError, match="pose differs"):
+        sample_antipodal(scene, moved, AntipodalConfig(), np.random.default_rng(0))

@@ -89,12 +89,13 @@ def prepare_depth(depth: NDArray | DepthScene, camera: Camera | None = None) -> 
     hand the scene to both :func:`sample_antipodal` and :func:`extract_crops`.
     """
     if isinstance(depth, DepthScene):
-        if (
-            camera is not None
-            and camera is not depth.camera
-            and not np.array_equal(camera.pose, depth.camera.pose)
-        ):
-            raise ValueError("a prepared DepthScene was passed with a different camera")
+        if camera is not None and camera is not depth.camera:
+            if not np.array_equal(camera.pose, depth.camera.pose):
+                raise ValueError("a prepared DepthScene was passed with a different camera (pose differs)")
+            if camera.intrinsics != depth.camera.intrinsics:
+                raise ValueError(
+                    "a prepared DepthScene was passed with a different camera (intrinsics differ)"
+                )
         return depth
     if camera is None:
         raise ValueError("a camera is needed to prepare a depth image")
