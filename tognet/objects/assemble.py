@@ -1,12 +1,17 @@
 """Write one object to disk: convex collision pieces, a watertight visual mesh, an MJCF model.
 
-Mass properties come from the watertight visual mesh and the density (the convex pieces may overlap
-where the parts join, so summing them would count the overlap twice); the MJCF states them
-explicitly in an ``<inertial>`` element so MuJoCo does not recompute them from the pieces.
+Mass properties come either from the watertight visual mesh and one density, or (``parts=``) from
+watertight part meshes with a density each, whose union is the visual. The convex pieces may overlap
+where the parts join, so summing them would count the overlap twice: with parts, every bit of shared
+volume belongs to exactly one part, the first one listed (part i's own solid is part i minus the
+boolean union of parts 0..i-1, manifold3d). Masses add up; centres of mass combine weighted by mass;
+inertias move to the common centre of mass by the parallel-axis theorem. The MJCF states the result
+explicitly in an ``<inertial>`` element so MuJoCo does not recompute it from the pieces.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -57,6 +62,82 @@ def mass_properties(mesh: trimesh.Trimesh, density: float) -> tuple[float, float
     com = np.asarray(props["center_mass"], dtype=np.float64)
     inertia = np.asarray(props["inertia"], dtype=np.float64) * density / float(props["density"])
     return density * volume, volume, com, inertia
+
+
+PartSpec = tuple[trimesh.Trimesh, float]
+
+
+@dataclass(frozen=True)
+class PartMass:
+    """Mass properties of one part's own solid (after the parts listed before it took their share)."""
+
+    density: float
+    volume: float
+    mass: float
+    com: np.ndarray
+    inertia: np.ndarray
+
+
+def _union(meshes: list[trimesh.Trimesh]) -> trimesh.Trimesh:
+    if len(meshes) == 1:
+        return meshes[0]
+    result = trimesh.boolean.union(meshes, engine="manifold")
+    if not isinstance(result, trimesh.Trimesh):
+        raise MeshError("boolean union of the parts failed")
+    return result
+
+
+def exclusive_solids(meshes: list[trimesh.Trimesh]) -> list[trimesh.Trimesh | None]:
+    """Each part minus the union of the parts before it (manifold3d); None where nothing is left.
+
+    The first part keeps all of itself, so overlapping volume is counted once, for the earliest part.
+    """
+    out: list[trimesh.Trimesh | None] = []
+    for i, mesh in enumerate(meshes):
+        if not mesh.is_watertight or not float(mesh.volume) > 0:
+            raise MeshError(f"part {i} is not a watertight volume with positive volume")
+        if i == 0:
+            out.append(mesh)
+            continue
+        before = _union(list(meshes[:i]))
+        own = trimesh.boolean.difference([mesh, before], engine="manifold")
+        if not isinstance(own, trimesh.Trimesh) or len(own.faces) == 0 or not float(own.volume) > 0:
+            out.append(None)
+        else:
+            out.append(own)
+    return out
+
+
+def part_masses(parts: list[PartSpec]) -> list[PartMass]:
+    """Mass properties of each part's own solid (see :func:`exclusive_solids`), in the parts' frame."""
+    if not parts:
+        raise MeshError("parts is empty")
+    for i, (_mesh, rho) in enumerate(parts):
+        if not float(rho) > 0:
+            raise MeshError(f"part {i}: density must be positive, got {rho}")
+    solids = exclusive_solids([mesh for mesh, _ in parts])
+    out = []
+    for (_mesh, rho), solid in zip(parts, solids, strict=True):
+        if solid is None:
+            out.append(PartMass(float(rho), 0.0, 0.0, np.zeros(3), np.zeros((3, 3))))
+            continue
+        mass, volume, com, inertia = mass_properties(solid, float(rho))
+        out.append(PartMass(float(rho), volume, mass, com, inertia))
+    return out
+
+
+def combine(masses: list[PartMass]) -> tuple[float, float, np.ndarray, np.ndarray]:
+    """(mass, volume, centre of mass, inertia about it) of rigidly joined parts (parallel-axis theorem)."""
+    total = sum(p.mass for p in masses)
+    volume = sum(p.volume for p in masses)
+    if not total > 0:
+        raise MeshError("the parts have no mass")
+    com = sum(p.mass * p.com for p in masses) / total
+    inertia = np.zeros((3, 3))
+    for p in masses:
+        d = p.com - com
+        inertia += p.inertia + p.mass * (float(d @ d) * np.eye(3) - np.outer(d, d))
+    return float(total), float(volume), np.asarray(com, dtype=np.float64), inertia
 
 
 def _fmt(values: Any) -> str:
@@ -111,19 +192,60 @@ def assemble_object(
     part_types: list[str],
     visual: trimesh.Trimesh,
     collision_pieces: list[trimesh.Trimesh],
-    density: float,
+    density: float | None = None,
     friction: float,
     extra: dict[str, Any] | None = None,
+    parts: list[PartSpec] | None = None,
+    part_names: list[str] | None = None,
 ) -> ObjectRecord:
     """Write an object's files into ``set_dir/object_id`` and return its record.
 
-    ``visual`` must be watertight (it defines mass properties); ``collision_pieces`` must be convex.
+    ``visual`` must be watertight; ``collision_pieces`` must be convex. Give exactly one of:
+
+    - ``density``: one density; mass properties come from the visual mesh (the original behaviour,
+      byte for byte);
+    - ``parts``: (watertight mesh, density) per part, in the object frame, whose union is the visual.
+      Shared volume belongs to the first part listed that contains it. The record's ``volume`` is the
+      parts' union volume (checked against the visual's, 0.5 % tolerance), ``density`` is mass / volume,
+      and ``extra`` gains ``part_names`` (``part_names`` or "0", "1", ...), ``part_densities`` (kg/m^3),
+      ``part_volumes`` (m^3, each part's own share) and ``part_masses`` (kg), in the parts' order.
     """
     if not collision_pieces:
         raise MeshError(f"{object_id}: no collision pieces")
-    if density <= 0 or friction <= 0:
-        raise MeshError(f"{object_id}: density and friction must be positive, got {density}, {friction}")
-    mass, volume, com, inertia = mass_properties(visual, density)
+    if (density is None) == (parts is None):
+        raise MeshError(f"{object_id}: give exactly one of density= and parts=")
+    if not friction > 0:
+        raise MeshError(f"{object_id}: friction must be positive, got {friction}")
+    extra = dict(extra or {})
+    if parts is None:
+        assert density is not None
+        if not density > 0:
+            raise MeshError(f"{object_id}: density must be positive, got {density}")
+        mass, volume, com, inertia = mass_properties(visual, density)
+    else:
+        names = list(part_names) if part_names is not None else [str(i) for i in range(len(parts))]
+        if len(names) != len(parts):
+            raise MeshError(f"{object_id}: {len(names)} part names for {len(parts)} parts")
+        try:
+            masses = part_masses(parts)
+        except MeshError as exc:
+            raise MeshError(f"{object_id}: {exc}") from None
+        mass, volume, com, inertia = combine(masses)
+        visual_volume = float(visual.volume)
+        if abs(volume - visual_volume) > 0.005 * visual_volume:
+            raise MeshError(
+                f"{object_id}: the parts' union ({volume * 1e6:.3f} cm^3) is not the visual "
+                f"({visual_volume * 1e6:.3f} cm^3)"
+            )
+        density = mass / volume
+        extra.update(
+            {
+                "part_names": names,
+                "part_densities": [round(p.density, 6) for p in masses],
+                "part_volumes": [round(p.volume, 12) for p in masses],
+                "part_masses": [round(p.mass, 9) for p in masses],
+            }
+        )
     folder = Path(set_dir) / object_id
     folder.mkdir(parents=True, exist_ok=True)
     names = []
@@ -149,7 +271,7 @@ def assemble_object(
         visual_mesh="visual.obj",
         mjcf="object.xml",
         folder=str(folder.resolve()),
-        extra=dict(extra or {}),
+        extra=extra,
     )
     (folder / "object.xml").write_text(mjcf_text(record))
     return record
