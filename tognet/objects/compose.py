@@ -10,6 +10,11 @@ Part A is the long part (a handle, or a long edge); part B is placed by the rule
   A's long straight side and B form an L (a long sweeping edge with a hook).
 - **X**: B crosses A somewhere in A's middle at 35-90 degrees.
 
+Each part has its own density (:func:`part_densities`): the handle light (wood, plastic), the T head
+or L arm metal with some probability, the two X parts independently, within the object's mass range.
+Part B is listed first in the mass model, so the volume where the parts overlap is B's (the head block
+is one material, the handle ends where it enters the head).
+
 Both parts rest with their lowest points at the same height so a tool lies flat on a table; the object
 frame is then moved to the centre of the bounding box. The visual is the boolean union of the two
 parts (watertight, used for mass properties); the collision pieces are the two convex parts.
@@ -48,7 +53,20 @@ class ShapeRanges(Config):
     x_cross_height: tuple[float, float] = doc((0.015, 0.035), "X rule: crossing part height range (m).")
     max_length: float = doc(0.40, "Longest side of the whole object at most this (m); larger layouts shrink.")
     density: tuple[float, float] = doc(
-        (300.0, 2500.0), "Density range (kg/m^3), uniform: wood and plastics to light metal alloys."
+        (300.0, 2500.0),
+        "One-density range (kg/m^3) of sample_density (a single material for a whole object); the "
+        "generators draw one density per part from light_density / metal_density instead.",
+    )
+    light_density: tuple[float, float] = doc(
+        (400.0, 1400.0), "Per-part density range (kg/m^3) of light parts, uniform: woods and plastics."
+    )
+    metal_density: tuple[float, float] = doc(
+        (2700.0, 7900.0), "Per-part density range (kg/m^3) of metal parts, uniform: aluminium to steel."
+    )
+    metal_probability: tuple[float, float, float] = doc(
+        (0.5, 0.3, 0.2),
+        "Probability that a part is metal, per rule T, L, X: the T head and the L arm (part A, the "
+        "handle, is always light), each X part independently.",
     )
     mass: tuple[float, float] = doc(
         (0.08, 1.2), "Mass range (kg): densities are drawn from the part of their range giving such masses."
@@ -222,3 +240,75 @@ def sample_density(rng: np.random.Generator, ranges: ShapeRanges, volume: float)
     if lo <= hi:
         return lo + u * (hi - lo)
     return float(ranges.density[1] if ranges.mass[0] / volume > ranges.density[1] else ranges.density[0])
+
+
+def sample_part_densities(
+    rng: np.random.Generator,
+    volumes: list[float],
+    intervals: list[tuple[float, float]],
+    mass: tuple[float, float],
+) -> list[float] | None:
+    """Per-part densities, each uniform in its interval, with total mass sum(rho_i * V_i) in ``mass``.
+
+    The multi-part form of :func:`sample_density`: the parts are drawn in order, each uniformly over
+    the part of its interval that still leaves the remaining parts a way to reach the mass range
+    (their interval bounds), so every draw stays feasible. Returns None when no choice in the
+    intervals gives a mass in range. A part of volume 0 gets the middle of its interval.
+    """
+    vols = [float(v) for v in volumes]
+    if len(vols) != len(intervals) or not vols:
+        raise ValueError(f"{len(vols)} volumes for {len(intervals)} density intervals")
+    if any(v < 0 for v in vols) or not sum(vols) > 0:
+        raise MeshError(f"cannot choose densities for part volumes {vols}")
+    lo_mass = sum(lo * v for (lo, _), v in zip(intervals, vols, strict=True))
+    hi_mass = sum(hi * v for (_, hi), v in zip(intervals, vols, strict=True))
+    if lo_mass > mass[1] or hi_mass < mass[0]:
+        return None
+    out: list[float] = []
+    fixed = 0.0
+    for i, ((lo, hi), v) in enumerate(zip(intervals, vols, strict=True)):
+        rest_lo = sum(a * w for (a, _), w in zip(intervals[i + 1 :], vols[i + 1 :], strict=True))
+        rest_hi = sum(b * w for (_, b), w in zip(intervals[i + 1 :], vols[i + 1 :], strict=True))
+        u = float(rng.uniform(0.0, 1.0))
+        if v <= 0:
+            out.append(0.5 * (lo + hi))
+            continue
+        a = max(lo, (mass[0] - fixed - rest_hi) / v)
+        b = min(hi, (mass[1] - fixed - rest_lo) / v)
+        b = max(a, b)  # rounding only: the check above keeps a <= b
+        rho = a + u * (b - a)
+        out.append(rho)
+        fixed += rho * v
+    return out
+
+
+def part_densities(
+    rng: np.random.Generator, ranges: ShapeRanges, rule: str, volume_a: float, volume_b: float
+) -> tuple[float, float, list[str]]:
+    """(density of A, density of B, [material class of A, of B]) for a two-part object.
+
+    Classes are ``light`` (``ranges.light_density``) or ``metal`` (``ranges.metal_density``), drawn
+    with ``ranges.metal_probability`` of the rule (T head, L arm; both X parts independently; part A
+    of T and L is always light). B is drawn first, then A, each from its feasible interval so the mass
+    stays in ``ranges.mass``. If the metal choice cannot fit the mass range both parts become light;
+    if no light choice fits either (a very small or very large object), the densities nearest to the
+    mass range are used (the mass misses its range, the materials stay plausible).
+    """
+    p = dict(zip(RULES, ranges.metal_probability, strict=True))[rule]
+    metal_a = rule == "X" and float(rng.uniform()) < p
+    metal_b = float(rng.uniform()) < p
+    classes = ["metal" if metal_a else "light", "metal" if metal_b else "light"]
+    span = {"light": tuple(ranges.light_density), "metal": tuple(ranges.metal_density)}
+    while True:
+        # draw order B, A (the head decides most of the mass)
+        drawn = sample_part_densities(
+            rng, [volume_b, volume_a], [span[classes[1]], span[classes[0]]], tuple(ranges.mass)
+        )
+        if drawn is not None:
+            return drawn[1], drawn[0], classes
+        if "metal" not in classes:
+            break
+        classes = ["light", "light"]
+    too_heavy = ranges.light_density[0] * (volume_a + volume_b) > ranges.mass[1]
+    rho = float(ranges.light_density[0] if too_heavy else ranges.light_density[1])
+    return rho, rho, classes

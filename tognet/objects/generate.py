@@ -30,9 +30,9 @@ from tqdm import tqdm
 
 from tognet.config import Config, doc
 from tognet.errors import TognetError
-from tognet.objects.assemble import MeshError, assemble_object
+from tognet.objects.assemble import MeshError, assemble_object, exclusive_solids
 from tognet.objects.complex import ComplexConfig, make_complex
-from tognet.objects.compose import sample_density
+from tognet.objects.compose import part_densities
 from tognet.objects.primitive import PrimitiveConfig, make_primitive
 from tognet.objects.record import CATALOG_NAME, SPLITS, ObjectRecord, load_catalog, load_meta, write_catalog
 
@@ -41,8 +41,9 @@ CONFIG_NAME = "generator_config.json"
 SEED_NAMESPACE = "tognet/objects/v1"
 MAX_ATTEMPTS = 8
 #: 1: first release; 2: density drawn from the feasible interval (no mass clamp);
-#: 3: PG-Complex parts get a flat bottom face; 4: so do PG-Primitive polytopes.
-GENERATOR_VERSION = 4
+#: 3: PG-Complex parts get a flat bottom face; 4: so do PG-Primitive polytopes;
+#: 5: one density per part (light handle, sometimes metal head/arm), mass properties per part.
+GENERATOR_VERSION = 5
 
 
 @dataclass(frozen=True)
@@ -147,7 +148,9 @@ def generate_object(
         except MeshError as exc:
             last_error = exc
             continue
-        density = sample_density(rng, ranges, float(visual.volume))
+        part_a, part_b = pieces
+        own_b, own_a = (0.0 if s is None else float(s.volume) for s in exclusive_solids([part_b, part_a]))
+        rho_a, rho_b, (class_a, class_b) = part_densities(rng, ranges, rule, own_a, own_b)
         friction = float(rng.uniform(*ranges.friction))
         return assemble_object(
             set_dir,
@@ -158,9 +161,10 @@ def generate_object(
             part_types=types,
             visual=visual,
             collision_pieces=pieces,
-            density=density,
+            parts=[(part_b, rho_b), (part_a, rho_a)],
+            part_names=["B", "A"],
             friction=friction,
-            extra={"seed": seed, "attempt": attempt, **info},
+            extra={"seed": seed, "attempt": attempt, **info, "part_materials": {"A": class_a, "B": class_b}},
         )
     name = object_id(kind, split, index)
     raise MeshError(f"{name}: no valid object in {MAX_ATTEMPTS} attempts ({last_error})")

@@ -6,8 +6,9 @@ Per object (:func:`object_stats`), in the object frame (z up, as the object lies
 - ``height``: the z extent (a flat tool lies low);
 - ``narrowest``: the smallest xy width of any collision piece, over all directions (what a top-down
   parallel-jaw gripper must close around); ``graspable``: narrowest <= gripper opening - 1 cm;
-- ``head_fraction``: for two-part objects, the volume share of part B (the head of a T) in the two
-  convex parts (one density per object, so it is also the mass share);
+- ``head_fraction``: for two-part objects, the mass share of part B (the head of a T): from the
+  record's per-part masses (``extra["part_masses"]`` of the part named "B") when the object has a
+  per-part mass model, otherwise B's volume share of the two convex parts (one density);
 - ``rests_flat``: the centre of mass lies (2 mm inside) over the convex hull of the mesh points within
   1 mm of its lowest point, so the object stays in the pose it was made in;
 - ``mass``, ``density``, ``friction`` as recorded.
@@ -71,7 +72,10 @@ def object_stats(record: ObjectRecord, opening: float = GRIPPER_OPENING) -> Obje
     visual = record.load_mesh(record.visual_mesh)
     narrowest = min(min_width(np.asarray(p.vertices)) for p in pieces)
     head = None
-    if len(pieces) == 2 and record.shape_rule in ("T", "L", "X"):
+    names, masses = record.extra.get("part_names"), record.extra.get("part_masses")
+    if record.shape_rule in ("T", "L", "X") and names and masses and "B" in names and sum(masses) > 0:
+        head = float(masses[names.index("B")]) / float(sum(masses))
+    elif len(pieces) == 2 and record.shape_rule in ("T", "L", "X"):
         volumes = [float(p.volume) for p in pieces]
         head = volumes[1] / sum(volumes)
     return ObjectStats(
