@@ -106,6 +106,11 @@ def _generate_realistic(split: str, index: int, set_dir: Path) -> ObjectRecord:
     pieces = [p.copy() for p in model.pieces]
     for piece in pieces:
         piece.apply_translation(shift)
+    parts = []
+    for _material, solid, rho in model.parts:
+        moved = solid.copy()
+        moved.apply_translation(shift)
+        parts.append((moved, rho))
     return assemble_object(
         set_dir,
         object_id=object_id("realistic", split, index),
@@ -115,7 +120,8 @@ def _generate_realistic(split: str, index: int, set_dir: Path) -> ObjectRecord:
         part_types=[model.category],
         visual=visual,
         collision_pieces=pieces,
-        density=model.density,
+        parts=parts,
+        part_names=[material for material, _, _ in model.parts],
         friction=model.friction,
         extra={"name": model.name, "category": model.category, "tool_like": bool(model.tool_like)},
     )

@@ -3,8 +3,11 @@
 Each model is built by hand from convex parts (see ``realistic_parts``): hulls of cross-sections for
 handles and heads, extruded convex outlines for blades and jaws, circumscribed sector pieces for
 thin-walled vessels. The visual mesh is the watertight union of the parts (manifold3d); the collision
-pieces are the parts themselves. Everything is in metres, the object lies in a stable rest pose on the
-plane z = 0, centred in x and y. No randomness: ``make_realistic(i)`` always builds the same meshes.
+pieces are the parts themselves. Each part has a material (``realistic_parts.MATERIALS``); mass, centre
+of mass and inertia come from each material's solid and density (a hammer's steel head makes it
+head-heavy), and the rest pose is chosen for that centre of mass. Everything is in metres, the object
+lies in a stable rest pose on the plane z = 0, centred in x and y. No randomness: ``make_realistic(i)``
+always builds the same meshes.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ import numpy as np
 import trimesh
 from shapely.geometry import Point, Polygon
 
+from tognet.objects.assemble import combine, part_masses
 from tognet.objects.realistic_parts import (
     Builder,
     annulus,
@@ -38,7 +42,11 @@ from tognet.objects.realistic_parts import (
 
 @dataclass(frozen=True)
 class RealisticModel:
-    """One realistic object: watertight visual mesh and convex collision pieces, in its rest pose."""
+    """One realistic object: watertight visual mesh and convex collision pieces, in its rest pose.
+
+    ``parts`` are (material, solid, density) per material, in the rest pose, whose union is the
+    visual: the mass model (see ``Builder.mass_parts``). ``density`` is the overall mass / volume.
+    """
 
     name: str
     category: str
@@ -47,6 +55,12 @@ class RealisticModel:
     pieces: list[trimesh.Trimesh]
     density: float
     friction: float
+    parts: tuple[tuple[str, trimesh.Trimesh, float], ...] = ()
+
+    @property
+    def mass(self) -> float:
+        """Total mass (kg): ``density`` is mass / visual volume."""
+        return self.density * float(self.visual.volume)
 
 
 # ----------------------------------------------------------------------------------------------- tools
@@ -759,18 +773,21 @@ def make_realistic(index: int) -> RealisticModel:
     builder = factory()
     visual = builder.visual()
     pieces = [p.copy() for p in builder.pieces]
-    transform = rest_pose(visual, pieces)
+    parts = builder.mass_parts()
+    mass, volume, com, _inertia = combine(part_masses([(solid, rho) for _, solid, rho in parts]))
+    transform = rest_pose(visual, pieces, com=com)
     visual.apply_transform(transform)
-    for piece in pieces:
-        piece.apply_transform(transform)
+    for mesh in [*pieces, *(solid for _, solid, _ in parts)]:
+        mesh.apply_transform(transform)
     return RealisticModel(
         name=name,
         category=category,
         tool_like=tool_like,
         visual=visual,
         pieces=pieces,
-        density=round(builder.density(), 3),
+        density=round(mass / float(visual.volume), 3),
         friction=builder.friction(),
+        parts=tuple(parts),
     )
 
 

@@ -302,24 +302,52 @@ class Builder:
     pieces: list[trimesh.Trimesh] = field(default_factory=list)
     materials: list[str] = field(default_factory=list)
     visual_parts: list[trimesh.Trimesh] = field(default_factory=list)
+    visual_materials: list[str] = field(default_factory=list)
 
     def add(self, mesh: trimesh.Trimesh | Sequence[trimesh.Trimesh], material: str) -> None:
         """Add convex part(s) that are both collision pieces and part of the visual union."""
+        if material not in MATERIALS:
+            raise KeyError(f"unknown material {material!r}; known: {', '.join(MATERIALS)}")
         meshes = [mesh] if isinstance(mesh, trimesh.Trimesh) else list(mesh)
         for m in meshes:
             self.pieces.append(m)
             self.materials.append(material)
             self.visual_parts.append(m)
+            self.visual_materials.append(material)
 
     def add_vessel(self, v: Vessel, material: str) -> None:
         """Add a vessel: its smooth visual joins the union, its sector hulls become pieces."""
+        if material not in MATERIALS:
+            raise KeyError(f"unknown material {material!r}; known: {', '.join(MATERIALS)}")
         self.visual_parts.append(v.visual)
+        self.visual_materials.append(material)
         for m in v.pieces:
             self.pieces.append(m)
             self.materials.append(material)
 
+    def mass_parts(self) -> list[tuple[str, trimesh.Trimesh, float]]:
+        """(material, watertight solid, density) per material, in the order materials were first added.
+
+        Each solid is the union of that material's visual parts; where solids of two materials overlap
+        the one added first owns the volume (``assemble_object``'s rule), e.g. a hammer's wooden
+        handle where it runs into the steel head's eye.
+        """
+        order: list[str] = []
+        for material in self.visual_materials:
+            if material not in order:
+                order.append(material)
+        out = []
+        for material in order:
+            pairs = zip(self.visual_parts, self.visual_materials, strict=True)
+            meshes = [m for m, mat in pairs if mat == material]
+            solid = meshes[0].copy() if len(meshes) == 1 else trimesh.boolean.union(meshes, engine="manifold")
+            if solid.volume < 0:
+                solid.invert()
+            out.append((material, solid, MATERIALS[material][0]))
+        return out
+
     def density(self) -> float:
-        """Volume-weighted density of the pieces' materials."""
+        """Volume-weighted density of the pieces' materials (a rough single-density summary only)."""
         vols = np.array([p.volume for p in self.pieces])
         rhos = np.array([MATERIALS[m][0] for m in self.materials])
         return float((vols * rhos).sum() / vols.sum())
@@ -339,7 +367,11 @@ class Builder:
 
 
 def rest_pose(
-    visual: trimesh.Trimesh, pieces: list[trimesh.Trimesh], margin: float = 0.002, settle: float = 0.0015
+    visual: trimesh.Trimesh,
+    pieces: list[trimesh.Trimesh],
+    margin: float = 0.002,
+    settle: float = 0.0015,
+    com: np.ndarray | None = None,
 ) -> np.ndarray:
     """4x4 transform putting the object on the table (z = 0) in the stable pose nearest to the built one.
 
@@ -349,11 +381,12 @@ def rest_pose(
     stable when the centre of mass projects inside that polygon with ``margin`` to spare. Among stable
     poses the one whose down direction is nearest to -z wins, so a model built lying on its base keeps
     that pose. The result is centred on the origin in x and y, with its lowest point at z = 0.
+    ``com`` is the centre of mass (default: the visual's at uniform density).
     """
     points = np.vstack([p.vertices for p in pieces])
     ch = trimesh.convex.convex_hull(points)
     verts = np.asarray(ch.vertices)
-    com = np.asarray(visual.center_mass)
+    com = np.asarray(visual.center_mass if com is None else com, dtype=np.float64)
     normals = np.asarray(ch.face_normals)
     order = np.argsort(normals[:, 2], kind="stable")  # most downward first
     chosen = normals[order[0]]
