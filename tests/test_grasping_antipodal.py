@@ -312,3 +312,13 @@ def test_gaussian_smoothing_matches_scipy():
     for sigma in (0.6, 1.0, 1.7):
         expected = ndimage.gaussian_filter(image, sigma, truncate=2.0, mode="nearest")
         np.testing.assert_allclose(_gaussian_smooth(image, sigma), expected, atol=1e-6)
+
+
+@pytest.mark.parametrize("height", [0.006, 0.007])
+def test_flat_parts_a_few_millimetres_tall_still_have_edges(height):
+    # Smoothing lowers a step's peak gradient to ~65 %; with the unscaled threshold a 7 mm tall part
+    # lost all its edges (and so its candidates).
+    camera = _camera(9)
+    depth = render_depth(camera, [Box.on_table(0.0, 0.0, (0.16, 0.035, height), 0.5)])
+    cands = sample_antipodal(depth, camera, AntipodalConfig(), np.random.default_rng(0))
+    assert len(cands) >= 100

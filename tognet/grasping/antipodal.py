@@ -210,6 +210,14 @@ def _gaussian_smooth(image: NDArray[np.float32], sigma: float) -> NDArray[np.flo
     return out
 
 
+def _smoothed_step_gain(sigma: float) -> float:
+    """Peak central-difference response of :func:`_gaussian_smooth` to a unit step, over the raw 0.5."""
+    step = np.zeros((1, 16), dtype=np.float32)
+    step[:, 8:] = 1.0
+    s = _gaussian_smooth(step, sigma)[0]
+    return float(np.max(s[2:] - s[:-2]))  # (difference / 2) / 0.5
+
+
 def _edge_pixels(filled: NDArray[np.float32], thresh: float) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """Rows and columns of pixels whose depth gradient exceeds ``thresh``, and the gradient images."""
     gx = np.zeros_like(filled)
@@ -262,8 +270,13 @@ def sample_antipodal(
     filled = scene.filled
     h, w = filled.shape
 
-    smooth = _gaussian_smooth(filled, config.edge_smoothing) if config.edge_smoothing > 0 else filled
-    rows, cols, gx, gy = _edge_pixels(smooth, config.depth_grad_thresh)
+    smooth, thresh = filled, config.depth_grad_thresh
+    if config.edge_smoothing > 0:
+        smooth = _gaussian_smooth(filled, config.edge_smoothing)
+        # A blurred step has a lower peak gradient: scale the threshold so that the same step heights
+        # pass as without smoothing (the raw-step test below keeps the original threshold).
+        thresh *= _smoothed_step_gain(config.edge_smoothing)
+    rows, cols, gx, gy = _edge_pixels(smooth, thresh)
     # Ignore the outermost image border (no central difference there).
     inner = (rows > 0) & (rows < h - 1) & (cols > 0) & (cols < w - 1)
     rows, cols = rows[inner], cols[inner]
