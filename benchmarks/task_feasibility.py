@@ -101,8 +101,9 @@ def main() -> None:
     p.add_argument("--budget", type=float, default=120.0, help="CPU seconds per (set, task)")
     p.add_argument("--max-objects", type=int, default=30, help="objects per set at most")
     p.add_argument("--verbose", action="store_true", help="one line per object")
+    p.add_argument("--config", type=Path, default=None, help="SimConfig JSON (default: built-in)")
     args = p.parse_args()
-    cfg = SimConfig()
+    cfg = SimConfig.load(args.config) if args.config else SimConfig()
     for folder in args.objects:
         records = load_catalog(Path(folder))[: args.max_objects]
         for task in args.tasks:
@@ -111,6 +112,7 @@ def main() -> None:
             feasible = sum(1 for o in objs if any(o["oracle"]))
             orc = [x for o in objs for x in o["oracle"]]
             rnd = [x for o in objs for x in o["random"]]
+            grasp_ok = np.mean([o["grasp_ok"] for o in objs if o["grasps"]])
             if args.verbose:
                 for o in objs:
                     print(
@@ -122,7 +124,8 @@ def main() -> None:
                 f"feasible (oracle) {feasible}/{len(objs)}"
                 f" = {feasible / max(1, len(objs)):.0%}  oracle trials {sum(orc)}/{len(orc)}"
                 f" = {sum(orc) / max(1, len(orc)):.1%}  NMS+random action {sum(rnd)}/{len(rnd)}"
-                f" = {sum(rnd) / max(1, len(rnd)):.1%}  ({res['cpu']:.0f} cpu s)",
+                f" = {sum(rnd) / max(1, len(rnd)):.1%}  grasp success {grasp_ok:.0%}"
+                f"  ({res['cpu']:.0f} cpu s)",
                 flush=True,
             )
 

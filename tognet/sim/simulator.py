@@ -676,7 +676,16 @@ class Simulator:
         on_ground = [False] * n_cans
         targets = (CAN,) if self.task_name == "sweeping" else (PEG,)
 
+        c_sw = self.config.sweeping
+        # A can whose centre is below the table top by more than its half-diagonal is wholly beside the
+        # table, unsupported: it will reach the ground, so it counts as there (its fall is not simulated).
+        fallen_z = -(math.hypot(c_sw.can_radius, 0.5 * c_sw.can_height) + c_sw.fallen_margin)
+
         def watch() -> None:
+            for i in range(n_cans):
+                if not on_ground[i] and d.qpos[self._can_qadr[i] + 2] < fallen_z:
+                    on_ground[i] = True
+                    self._park_can(i)
             pairs = self._contacts()
             if not len(pairs):
                 return
@@ -699,7 +708,23 @@ class Simulator:
         held_after = self._held()
         settle = getattr(self.task.config, "settle_time", 0.2)
         if n_cans:
-            self._wait(settle, watch, until=lambda: all(on_ground))
+            resting = [0]
+
+            def done() -> bool:  # every can is down, or those left on the table have come to rest
+                if all(on_ground):
+                    return True
+                rest = all(
+                    on_ground[i]
+                    or (
+                        np.linalg.norm(d.qvel[a : a + 3]) < c_sw.rest_speed
+                        and np.linalg.norm(d.qvel[a + 3 : a + 6]) < 10 * c_sw.rest_speed
+                    )
+                    for i, a in enumerate(self._can_dadr[:n_cans])
+                )
+                resting[0] = resting[0] + 1 if rest else 0
+                return resting[0] >= c_sw.rest_checks
+
+            self._wait(settle, watch, until=done)
         else:
             self._wait(settle, watch)
         still = False

@@ -51,8 +51,30 @@ class SweepingConfig(Config):
         (0.14, 0.2), "Range of the x distance between two cans' centres (m): wider than a short edge."
     )
     stroke: float = doc(0.4, "Length of the straight sweep along world +y (m), as in the paper.")
-    sweep_speed: float = doc(0.6, "Gripper speed during the sweep (m/s).")
-    settle_time: float = doc(1.0, "Time allowed after the stroke for the cans to fall (s); ends early.")
+    sweep_speed: float = doc(
+        0.8,
+        "Gripper speed during the sweep (m/s). 0.8 rather than 0.6: 90 fewer steps per episode; scripted "
+        "checks (50 seeds) short-end 49/50 and long-middle 3/50 (0.6: 50/50, 0/50); 12 generated "
+        "PG-Primitive objects: oracle 79 % vs 75 % of trials, NMS + random action 32 % vs 25 %.",
+    )
+    settle_time: float = doc(
+        1.0,
+        "Time allowed after the stroke for the cans to fall (s); ends early when every can is down or "
+        "those left on the table are at rest.",
+    )
+    fallen_margin: float = doc(
+        0.01,
+        "A can whose centre is below the table top by more than its half-diagonal plus this (m) is wholly "
+        "beside the table and unsupported: it counts as on the ground without simulating the rest of its "
+        "fall (saves ~0.3 s of simulated time per can).",
+    )
+    rest_speed: float = doc(
+        0.01,
+        "A can on the table slower than this (m/s; and 10x this in rad/s) is at rest after the stroke.",
+    )
+    rest_checks: int = doc(
+        3, "The wait after the stroke ends once the cans left on the table rest this many checks in a row."
+    )
     nominal_offset: tuple[float, float, float] = doc(
         (0.0, -0.15, -0.03), "Gripper start position minus the reference point at a = 0 (m)."
     )
