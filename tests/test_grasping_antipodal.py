@@ -133,6 +133,24 @@ def test_t_shape_respects_max_candidates_and_seed():
     assert np.all(canonical.grasps[:, 3] < np.pi)
 
 
+@pytest.mark.parametrize("limit", [50, 51])
+def test_both_orientations_come_in_adjacent_pairs(limit):
+    camera = _camera(4)
+    depth = render_depth(camera, t_shape(0.02, -0.03, 0.7))
+    config = AntipodalConfig(max_candidates=limit, axis_direction="both")
+    both = sample_antipodal(depth, camera, config, np.random.default_rng(7))
+    assert len(both) == limit
+    n_pairs = limit // 2
+    g = both.grasps[: 2 * n_pairs].reshape(n_pairs, 2, 4)
+    np.testing.assert_allclose(g[:, 0, :3], g[:, 1, :3])
+    np.testing.assert_allclose(np.mod(g[:, 1, 3] - g[:, 0, 3], 2 * np.pi), np.pi, atol=1e-9)
+    np.testing.assert_allclose(both.z_depth[0::2][:n_pairs], both.z_depth[1::2][:n_pairs])
+    np.testing.assert_array_equal(both.quality[0::2][:n_pairs], both.quality[1::2][:n_pairs])
+    assert both.contacts.shape[0] == limit
+    # Distinct contact pairs: half as many as candidates (rounded up).
+    assert len({tuple(np.round(x[:3], 6)) for x in both.grasps}) == (limit + 1) // 2
+
+
 def test_empty_table_gives_explicit_empty_result():
     camera = _camera(5)
     depth = render_depth(camera, [])

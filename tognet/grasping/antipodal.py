@@ -118,10 +118,12 @@ class AntipodalConfig(Config):
     pad_height: float = doc(
         0.03, "Height (m) of the finger pads; their bottom is pad_height / 2 below the centre."
     )
-    axis_direction: Literal["random", "canonical"] = doc(
+    axis_direction: Literal["random", "canonical", "both"] = doc(
         "random",
         "phi and phi + pi close on the same contacts but hold the tool the other way round: 'random' picks "
-        "one at random per candidate; 'canonical' keeps phi in [0, pi).",
+        "one at random per candidate; 'canonical' keeps phi in [0, pi); 'both' returns each contact pair "
+        "twice, as phi and phi + pi, next to each other (at most max_candidates in all), so a task-oriented "
+        "scorer can choose which way round to hold the tool.",
     )
     workspace: tuple[float, float, float, float] | None = doc(
         None, "Optional world (x_min, x_max, y_min, y_max) box the contacts' midpoint must lie in."
@@ -370,16 +372,17 @@ def sample_antipodal(
     # Chunk sizes follow the observed acceptance rate (typically 60-80 %), so one chunk usually suffices.
     chosen: list[tuple[NDArray, ...]] = []
     n_have, n_tried, start = 0, 0, 0
-    while start < cells.size and n_have < config.max_candidates:
+    both = config.axis_direction == "both"
+    m = (config.max_candidates + 1) // 2 if both else config.max_candidates
+    while start < cells.size and n_have < m:
         rate = max(n_have / n_tried, 0.2) if n_tried else 0.65
-        size = max(int(1.1 * (config.max_candidates - n_have) / rate) + 8, 32)
+        size = max(int(1.1 * (m - n_have) / rate) + 8, 32)
         sel = cells[start : start + size]
         start += size
         z, ends, width, ok = _finalize(scene, p[i[sel]], p[j[sel]], axis[sel], config, rng)
         chosen.append((sel[ok], z[ok], ends[ok], width[ok]))
         n_have += int(ok.sum())
         n_tried += sel.size
-    m = config.max_candidates
     sel, z, ends, width = (np.concatenate([c[q] for c in chosen])[:m] for q in range(4))
     if sel.size == 0:
         return GraspCandidates.empty()
@@ -388,11 +391,18 @@ def sample_antipodal(
     phi = phi_line[sel]
     if config.axis_direction == "random":
         phi = phi + np.pi * (rng.random(sel.size) < 0.5)
+    quality = quality[sel]
+    top = np.maximum(p[i[sel], 2], p[j[sel], 2])
+    if both:  # each pair as phi and phi + pi, adjacent, so truncation keeps pairs whole
+        k = min(2 * sel.size, config.max_candidates)
+        centre, z, ends, width, quality, top = (
+            np.repeat(a, 2, axis=0)[:k] for a in (centre, z, ends, width, quality, top)
+        )
+        phi = (np.repeat(phi, 2) + np.tile([0.0, np.pi], sel.size))[:k]
     grasps = np.column_stack([centre, z, np.mod(phi, 2 * np.pi)])
     uv, zc = cam.project(grasps[:, :3])
-    top = np.maximum(p[i[sel], 2], p[j[sel], 2])
     contacts = np.concatenate([ends, np.broadcast_to(top[:, None, None], ends.shape[:2] + (1,))], axis=2)
-    return GraspCandidates(grasps, zc, uv, width, quality[sel], contacts)
+    return GraspCandidates(grasps, zc, uv, width, quality, contacts)
 
 
 def _occupied(scene: DepthScene, points_xy: NDArray, heights: NDArray, tolerance: float) -> NDArray[np.bool_]:
