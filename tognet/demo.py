@@ -1,7 +1,8 @@
 """``tognet demo``: the end-to-end demonstration run by ``make run``.
 
-For now it generates a few objects of each kind and writes their contact sheet; it grows with the
-pipeline (collection, training, evaluation).
+It generates a few objects of each kind and writes their contact sheets, then shows on the simulated
+tasks that the grasp matters (scripted checks), draws grasp candidates on a simulated depth image and
+animates one hammering episode. It grows with the pipeline (collection, training, evaluation).
 """
 
 from __future__ import annotations
@@ -22,8 +23,11 @@ def demo(
     realistic: int = typer.Option(
         12, min=1, help="Realistic models to generate (the first N: tools, then mugs, bottles, cans...)."
     ),
+    tasks: bool = typer.Option(True, help="Also run the task part: scripted checks, candidates, animation."),
+    seeds: int = typer.Option(5, min=1, help="Scenes per scripted check in the task part."),
+    gif: bool = typer.Option(True, help="Animate one hammering episode (needs MuJoCo's renderer: EGL)."),
 ) -> None:
-    """Generate a few objects of each kind and write their contact sheet (the pipeline grows from here)."""
+    """Objects of each kind with contact sheets, then the tasks: does the grasp matter, candidates, a GIF."""
     from tognet.objects import generate_set
     from tognet.objects.sheet import write_contact_sheet
 
@@ -58,6 +62,10 @@ def demo(
     typer.echo("contact sheets (each object from above and from the side, 10 cm bar):")
     for sheet in sheets:
         typer.echo(f"  {sheet}")
+    if tasks:
+        from tognet.demo_tasks import run_task_demo
+
+        run_task_demo(out / "tasks", seeds=seeds, gif=gif)
 
 
 def register(app: typer.Typer) -> None:
