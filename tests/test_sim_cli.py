@@ -39,3 +39,20 @@ def test_sim_command_writes_a_gif(tmp_path):
     assert 30 <= len(frames) <= 120  # a whole episode (the default grasp lifts the hammer)
     assert "grasp_success=True" in result.output
     assert np.std(np.asarray(frames[0], dtype=float)) > 5  # not a blank frame
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--task", "hammerin"], "unknown --task 'hammerin'"),
+        (["--gif", "{tmp}/episode.png"], "--gif must name a .gif file"),
+        (["--depth-png", "{tmp}/depth.jpg"], "--depth-png must name a .png file"),
+        (["--action", "0", "0", "inf", "0"], "--action takes 4 finite numbers"),
+        (["--grasp", "nan", "0", "0", "0"], "--grasp takes 4 finite numbers"),
+    ],
+)
+def test_sim_command_refuses_bad_input_before_any_work(tmp_path, args, message):
+    args = [a.format(tmp=tmp_path) for a in args]
+    result = CliRunner().invoke(app, ["sim", *args])
+    assert result.exit_code == 2 and message in result.output, result.output
+    assert "grasp_success" not in result.output and not list(tmp_path.iterdir())

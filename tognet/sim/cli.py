@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import tempfile
 from pathlib import Path
 
@@ -44,6 +45,9 @@ def register(app: typer.Typer) -> None:
 
         if task not in ("sweeping", "hammering", "grasping"):
             raise ValueError(f"unknown --task '{task}'; known: sweeping, hammering, grasping")
+        for values, name in ((grasp, "--grasp"), (action, "--action")):
+            if values is not None and not all(math.isfinite(v) for v in values):
+                raise ValueError(f"{name} takes 4 finite numbers, got {' '.join(map(str, values))}")
         for path, suffix, name in ((gif, ".gif", "--gif"), (depth_png, ".png", "--depth-png")):
             if path is not None and (path.suffix.lower() != suffix or path.is_dir()):
                 raise ValueError(f"{name} must name a {suffix} file, got '{path}'")
