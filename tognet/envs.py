@@ -67,10 +67,12 @@ class TognetEnv(gym.Env):
         lx, ly = 0.5 * w.table_size[0], 0.5 * w.table_size[1]
         self.observation_space = spaces.Dict(
             {
-                "depth": spaces.Box(0.0, np.inf, shape=(c.height, c.width), dtype=np.float32),
-                "intrinsics": spaces.Box(0.0, np.inf, shape=(4,), dtype=np.float64),
-                "camera_pose": spaces.Box(-np.inf, np.inf, shape=(4, 4), dtype=np.float64),
-                "reference": spaces.Box(-np.inf, np.inf, shape=(3,), dtype=np.float64),
+                # Finite bounds: depth in metres (0 = hole; the Kinect2 reads to ~8 m), focal lengths and
+                # principal point in pixels, poses and points in metres around the table (world origin).
+                "depth": spaces.Box(0.0, 10.0, shape=(c.height, c.width), dtype=np.float32),
+                "intrinsics": spaces.Box(0.0, 1e4, shape=(4,), dtype=np.float64),
+                "camera_pose": spaces.Box(-10.0, 10.0, shape=(4, 4), dtype=np.float64),
+                "reference": spaces.Box(-10.0, 10.0, shape=(3,), dtype=np.float64),
             }
         )
         grasp_low = np.array([-lx, -ly, 0.0, 0.0])
