@@ -32,3 +32,24 @@ def test_sweep_success_does_not_wait_for_the_fall_nor_a_failure_for_the_time_lim
     # Cans left standing come to rest: the wait ends long before the 3 s limit, same labels as with 1 s.
     assert np.isclose(bad.info["sim_time"], bad_short.info["sim_time"])
     assert bad.info["cans_on_ground"] == bad_short.info["cans_on_ground"]
+
+
+def test_parked_cans_touch_nothing_and_every_trial_gets_its_cans_back(tmp_path):
+    cfg = SimConfig()
+    cfg = cfg.replace(sweeping=cfg.sweeping.replace(n_cans=(1,)))
+    sim = Simulator(cfg, "sweeping", make_l_tool(tmp_path))
+    sim.reset(3)
+    spare = sim.model.geom("can_1").id
+    in_play = sim.model.geom("can_0").id
+    geoms = sim.data.contact.geom[: sim.data.ncon]
+    assert not np.any(geoms == spare)  # the unused can floats, parked, without ground contacts
+    assert np.any(geoms == in_play)  # the can in play stands on the table
+    assert sim.model.geom_contype[spare] == 0 and sim.model.geom_contype[in_play] == 1
+    pos, rot = sim.object_pose()
+    grasp = grasp_on_object(pos, rot, *SWEEP_GRASPS["short_end"])
+    first = sim.execute(grasp, sweep_action(sim, "short_end"), 0)
+    assert first.task_success and first.info["cans_on_ground"] == [True]
+    # The can swept off was parked during the trial; the scene (and the next trial) has it back.
+    assert sim.model.geom_contype[in_play] == 1
+    again = sim.execute(grasp, sweep_action(sim, "short_end"), 0)
+    assert again.task_success and again.info["sim_time"] == first.info["sim_time"]

@@ -415,11 +415,26 @@ class Simulator:
 
     def _park_can(self, i: int) -> None:
         """Take a can that reached the ground out of the scene (it has done its part): a fast-falling
-        can's impact on the ground at 2 ms steps is not worth simulating."""
+        can's impact on the ground at 2 ms steps is not worth simulating. A parked can touches nothing
+        and floats at rest (gravity compensated), so it costs no contacts (it used to stand on the
+        ground, about 4 contacts of every step for nothing)."""
         d, c, h = self.data, self.config.sweeping, self.config.world.table_height
         qa, da = self._can_qadr[i], self._can_dadr[i]
         d.qpos[qa : qa + 7] = (1.5 + 0.3 * i, 1.5, -h + 0.5 * c.can_height, 1, 0, 0, 0)
         d.qvel[da : da + 6] = 0.0
+        self._can_active(i, False)
+
+    def _can_active(self, i: int, active: bool) -> None:
+        """Switch can ``i``'s contacts and gravity on (in play) or off (parked). These are model fields,
+        so every trial sets them again from its scene (see :meth:`_activate_cans`)."""
+        m, g = self.model, self._can_geoms[i]
+        m.geom_contype[g] = m.geom_conaffinity[g] = 1 if active else 0
+        m.body_gravcomp[self._can_body[i]] = 0.0 if active else 1.0
+
+    def _activate_cans(self, n: int) -> None:
+        """The first ``n`` cans in play, the others parked."""
+        for i in range(len(self._can_geoms)):
+            self._can_active(i, i < n)
 
     def _place_props(self, layout: dict[str, Any]) -> None:
         m, d = self.model, self.data
@@ -435,6 +450,7 @@ class Simulator:
                     mass = 0.2
                     d.qpos[qa : qa + 3] = (1.5 + 0.3 * i, 1.5, -h + 0.5 * c.can_height)
                 d.qpos[qa + 3 : qa + 7] = (1, 0, 0, 0)
+                self._can_active(i, i < len(layout["cans"]))
                 body = self._can_body[i]
                 r, hh = c.can_radius, c.can_height
                 m.body_mass[body] = mass
@@ -549,6 +565,8 @@ class Simulator:
         if self.task is not None:
             action = self.task.check_action(np.zeros(4) if action is None else action)
         mujoco.mj_setState(self.model, self.data, self._saved, self._state_spec)
+        n_cans = len(self._scene["layout"].get("cans", []))
+        self._activate_cans(n_cans)  # cans parked by an earlier trial are back in play
         rng = np.random.default_rng([int(self._scene["seed"]), int(seed), 0xE8EC])
         info: dict[str, Any] = {"seed": int(seed), "scene_seed": self._scene["seed"]}
         try:
@@ -559,6 +577,7 @@ class Simulator:
         info["sim_time"] = float(self.data.time)
         # Back to the settled scene, so object_pose(), default_grasp() and the next trial see it.
         mujoco.mj_setState(self.model, self.data, self._saved, self._state_spec)
+        self._activate_cans(n_cans)
         mujoco.mj_forward(self.model, self.data)
         return result
 
@@ -627,6 +646,7 @@ class Simulator:
         self._move(np.array([start[0], start[1], high]), start_yaw, g.linear_speed, g.yaw_speed, watch_props)
         self._move(start, None, g.linear_speed, g.yaw_speed, watch_props)
         self._converge(monitor=watch_props)
+        info["in_hand_start"] = self._in_hand().tolist()  # how the tool hangs at the start pose
         if hit_before[0]:
             return TrialResult(True, False, True, FailureReason.COLLISION_BEFORE_MOTION, info)
         if not self._held():
