@@ -173,17 +173,23 @@ class Simulator:
 
     def _check_stable(self) -> None:
         d, e = self.data, self.config.episode
-        if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
-            raise _Unstable("NaN in the state")
-        if np.max(np.abs(d.qvel)) > e.max_speed:
-            raise _Unstable(f"speed {np.max(np.abs(d.qvel)):.1f}")
-        if d.ncon:
-            # Things falling off the table hit the ground fast; only other contacts count as deep.
-            dist = d.contact.dist[: d.ncon]
-            cats = self._cat[d.contact.geom[: d.ncon]]
-            deep = (dist < -e.max_penetration) & np.all(cats != GROUND, axis=1)
-            if np.any(deep):
-                raise _Unstable(f"penetration {-float(np.min(dist[deep])):.3f} m")
+        # Fast path (this runs every check_every steps): a NaN makes the max NaN, an inf the sum inf.
+        speed = float(np.max(np.abs(d.qvel)))
+        if not (speed <= e.max_speed and math.isfinite(float(np.sum(d.qpos)))):
+            if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
+                raise _Unstable("NaN in the state")
+            if speed > e.max_speed:
+                raise _Unstable(f"speed {speed:.1f}")
+        n = d.ncon
+        if n:
+            contact = d.contact
+            dist = contact.dist[:n]
+            if float(np.min(dist)) < -e.max_penetration:
+                # Things falling off the table hit the ground fast; only other contacts count as deep.
+                cats = self._cat[contact.geom[:n]]
+                deep = (dist < -e.max_penetration) & np.all(cats != GROUND, axis=1)
+                if np.any(deep):
+                    raise _Unstable(f"penetration {-float(np.min(dist[deep])):.3f} m")
 
     # --- gripper setpoints --------------------------------------------------------------------------
     def _set_gripper(self, pos: NDArray[np.float64], yaw: float, opening: float) -> None:
@@ -639,8 +645,12 @@ class Simulator:
         hit_before = [False]
 
         def watch_props() -> None:
-            pairs = self._contacts()
-            if len(pairs) and np.any(_TOOL_SIDE[pairs[:, 0]] & _PROPS[pairs[:, 1]]):
+            n = d.ncon
+            if hit_before[0] or not n:
+                return
+            cats = self._cat[d.contact.geom[:n]]
+            a, b = cats[:, 0], cats[:, 1]
+            if np.any((_TOOL_SIDE[a] & _PROPS[b]) | (_TOOL_SIDE[b] & _PROPS[a])):
                 hit_before[0] = True
 
         self._move(np.array([start[0], start[1], high]), start_yaw, g.linear_speed, g.yaw_speed, watch_props)
@@ -701,25 +711,30 @@ class Simulator:
         # table, unsupported: it will reach the ground, so it counts as there (its fall is not simulated).
         fallen_z = -(math.hypot(c_sw.can_radius, 0.5 * c_sw.can_height) + c_sw.fallen_margin)
 
+        is_target = np.isin(np.arange(len(_TOOL_SIDE)), targets)
+        qpos = d.qpos
+
         def watch() -> None:
             for i in range(n_cans):
-                if not on_ground[i] and d.qpos[self._can_qadr[i] + 2] < fallen_z:
+                if not on_ground[i] and qpos[self._can_qadr[i] + 2] < fallen_z:
                     on_ground[i] = True
                     self._park_can(i)
-            pairs = self._contacts()
-            if not len(pairs):
+            n = d.ncon
+            if not n:
                 return
-            if np.any(_TOOL_SIDE[pairs[:, 0]] & np.isin(pairs[:, 1], targets)):
+            geoms = d.contact.geom[:n]
+            cats = self._cat[geoms]
+            a, b = cats[:, 0], cats[:, 1]
+            if not touched[0] and np.any((_TOOL_SIDE[a] & is_target[b]) | (_TOOL_SIDE[b] & is_target[a])):
                 touched[0] = True
-            if n_cans:
-                geoms = self.data.contact.geom[: self.data.ncon]
-                ground = self._cat[geoms] == GROUND
-                for i in range(n_cans):
-                    if not on_ground[i] and np.any(
-                        np.any(geoms == self._can_geoms[i], axis=1) & np.any(ground, axis=1)
-                    ):
-                        on_ground[i] = True
-                        self._park_can(i)
+            if n_cans and not all(on_ground):
+                ground = (a == GROUND) | (b == GROUND)
+                if np.any(ground):
+                    hit = geoms[ground]
+                    for i in range(n_cans):
+                        if not on_ground[i] and np.any(hit == self._can_geoms[i]):
+                            on_ground[i] = True
+                            self._park_can(i)
 
         for motion in self.task.primitive():
             target = d.act[:3] + np.asarray(motion.delta)
