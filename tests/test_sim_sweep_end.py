@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from tognet.sim import SimConfig, Simulator
+from tognet.sim import FailureReason, SimConfig, Simulator
 from tognet.sim.checks import SWEEP_GRASPS, sweep_action
 from tognet.sim.tools import grasp_on_object, make_l_tool
 
@@ -53,3 +53,36 @@ def test_parked_cans_touch_nothing_and_every_trial_gets_its_cans_back(tmp_path):
     assert sim.model.geom_contype[in_play] == 1
     again = sim.execute(grasp, sweep_action(sim, "short_end"), 0)
     assert again.task_success and again.info["sim_time"] == first.info["sim_time"]
+
+
+def _hold_run(tmp_path, margin, action_shift=(0.0, 0.0, 0.0, 0.0)):
+    cfg = SimConfig()
+    cfg = cfg.replace(sweeping=cfg.sweeping.replace(n_cans=(2,), can_hold_margin=margin))
+    sim = Simulator(cfg, "sweeping", make_l_tool(tmp_path))
+    sim.reset(5)
+    held_steps = [0]
+    step = sim._step
+
+    def counting_step(n):
+        step(n)
+        held_steps[0] += n if sim._held_cans else 0
+
+    sim._step = counting_step
+    pos, rot = sim.object_pose()
+    grasp = grasp_on_object(pos, rot, *SWEEP_GRASPS["short_end"])
+    action = sweep_action(sim, "short_end") + np.asarray(action_shift)
+    return sim.execute(grasp, action, 0), held_steps[0]
+
+
+def test_cans_on_hold_while_the_tool_is_far_and_back_before_it_arrives(tmp_path):
+    held, n_held = _hold_run(tmp_path / "a", 0.1)
+    always, n_always = _hold_run(tmp_path / "b", 10.0)  # a margin so wide the cans are never on hold
+    assert n_held > 300 and n_always == 0
+    assert held.task_success and always.task_success
+    assert held.info["cans_on_ground"] == always.info["cans_on_ground"] == [True, True]
+    # Brought down onto the cans, the tool still hits them before the motion: they are back in time.
+    onto = (0.0, 0.15, 0.0, 0.0)
+    hit, n_hit = _hold_run(tmp_path / "c", 0.1, onto)
+    hit_always, _ = _hold_run(tmp_path / "d", 10.0, onto)
+    assert n_hit > 0
+    assert hit.failure == hit_always.failure == FailureReason.COLLISION_BEFORE_MOTION

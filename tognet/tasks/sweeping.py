@@ -75,6 +75,12 @@ class SweepingConfig(Config):
     rest_checks: int = doc(
         3, "The wait after the stroke ends once the cans left on the table rest this many checks in a row."
     )
+    can_hold_margin: float = doc(
+        0.1,
+        "Simulation shortcut, not part of the task: until the tool or the hand comes this close (m, in x "
+        "and y, around a sphere holding the whole tool) the cans standing still are left out of the "
+        "physics (their table contacts cost a third of every step) and come back as they stood.",
+    )
     nominal_offset: tuple[float, float, float] = doc(
         (0.0, -0.15, -0.03), "Gripper start position minus the reference point at a = 0 (m)."
     )
