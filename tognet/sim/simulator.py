@@ -31,6 +31,7 @@ from typing import Any
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial import ConvexHull, QhullError
 
 from tognet.errors import TognetError
 from tognet.geometry import Camera, CameraIntrinsics, Grasp
@@ -138,6 +139,8 @@ class Simulator:
             self._peg_qadr = int(m.jnt_qposadr[m.joint("peg").id])
             self._slot_body = m.body("slot").id
         self._vertices = self._object_vertices()
+        self._visual_geom = m.geom("object_visual").id
+        self._visual_mesh = int(m.geom_dataid[self._visual_geom])
         # Radius (m) around the object's body origin that holds all of its collision geometry.
         self._object_reach = float(np.max(np.linalg.norm(self._vertices, axis=1)))
         # Cans on hold while the tool is far from them: {can index: its (qpos, qvel) when put on hold}.
@@ -364,6 +367,43 @@ class Simulator:
         t[idx[hit]] = dist[hit]
         return hit
 
+    def _hull_test(self, camera: Camera) -> Any:
+        """A test ``inside(u, v)`` of pixel centres against the convex hull of the object's visual mesh
+        projected into the image, grown by 1.5 px (a ray outside it cannot hit the mesh). Everything
+        passes when the hull cannot be built (a vertex behind the camera, a degenerate outline)."""
+        m, d = self.model, self.data
+        gid, mid = self._visual_geom, self._visual_mesh
+        adr, num = int(m.mesh_vertadr[mid]), int(m.mesh_vertnum[mid])
+        local = m.mesh_vert[adr : adr + num].astype(np.float64)
+        world = local @ d.geom_xmat[gid].reshape(3, 3).T + d.geom_xpos[gid]
+        uv, z = camera.project(world)
+
+        def everything(u: NDArray[np.int64], v: NDArray[np.int64]) -> NDArray[np.bool_]:
+            return np.ones(np.shape(u), dtype=bool)
+
+        if not np.all(z > 0):
+            return everything
+        try:
+            hull = ConvexHull(uv)
+        except QhullError:
+            return everything
+        # Rows (nx, ny, offset) with unit normals: n . p + offset <= 0 inside; grown: <= 1.5 px. On image
+        # row v each edge bounds u from one side, so the grown hull is an interval [lo, hi] per row.
+        nx, ny, off = (col[None, :] for col in hull.equations.T)
+        rows = np.arange(camera.intrinsics.height, dtype=np.float64)[:, None]
+        rhs = 1.5 - off - ny * rows  # nx * u <= rhs
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bound = rhs / nx
+        lo = np.max(np.where(nx < 0, bound, -np.inf), axis=1)
+        hi = np.min(np.where(nx > 0, bound, np.inf), axis=1)
+        flat_ok = np.all(np.where(nx == 0, rhs >= 0, True), axis=1)
+        hi = np.where(flat_ok, hi, -np.inf)
+
+        def inside(u: NDArray[np.int64], v: NDArray[np.int64]) -> NDArray[np.bool_]:
+            return (u >= lo[v]) & (u <= hi[v])
+
+        return inside
+
     def render_depth(self, camera: Camera, rng: np.random.Generator | None = None) -> NDArray[np.float32]:
         """Depth image (camera-frame z, metres, NaN holes) by ray casting (no OpenGL).
 
@@ -397,10 +437,14 @@ class Simulator:
             u1, v1 = min(u1, k.width - 1), min(v1, k.height - 1)
             if u1 >= u0 and v1 >= v0:
                 # Coarse pass on every STRIDE-th pixel of the box, then every pixel near a coarse hit.
+                # Only pixels inside the mesh's projected convex hull are cast: the others cannot hit.
                 flat = [dd.ravel() for dd in dirs]
                 vv, uu = np.mgrid[v0 : v1 + 1 : _STRIDE, u0 : u1 + 1 : _STRIDE]
                 coarse = (vv * k.width + uu).ravel()
-                hits = self._cast_object_rays(origin, flat, coarse, t)
+                inside = self._hull_test(camera)
+                hits = np.zeros(coarse.size, dtype=bool)
+                cast = inside(uu.ravel(), vv.ravel())
+                hits[cast] = self._cast_object_rays(origin, flat, coarse[cast], t)
                 if np.any(hits):
                     # Grow the coarse hits by one cell and cast every pixel of those cells.
                     grid = np.pad(hits.reshape(vv.shape), 1)
@@ -413,9 +457,11 @@ class Simulator:
                     pv = (vv[cells_v, cells_u][:, None, None] + offs[None, :, None]).repeat(_STRIDE, axis=2)
                     pu = (uu[cells_v, cells_u][:, None, None] + offs[None, None, :]).repeat(_STRIDE, axis=1)
                     ok = (pv >= 0) & (pv < k.height) & (pu >= 0) & (pu < k.width)
-                    idx = np.unique(pv[ok] * k.width + pu[ok])
-                    idx = np.setdiff1d(idx, coarse)  # the coarse pixels are done
-                    self._cast_object_rays(origin, flat, idx, t)
+                    ok &= inside(pu, pv)
+                    todo = np.zeros(k.width * k.height, dtype=bool)
+                    todo[pv[ok] * k.width + pu[ok]] = True
+                    todo[coarse] = False  # the coarse pixels are done
+                    self._cast_object_rays(origin, flat, np.flatnonzero(todo), t)
         depth = t.astype(np.float32)
         depth[~np.isfinite(depth) | (depth > c.max_range)] = np.nan
         if rng is not None and c.depth_noise > 0:
