@@ -153,6 +153,7 @@ class Simulator:
         self.timers = {"physics": 0.0, "raycast": 0.0}
         self.steps = 0  # physics steps taken since construction (for benchmarks)
         self._ray_dirs_cam: NDArray[np.float64] | None = None
+        self._image_buffers: dict[tuple[str, tuple[int, int], int], NDArray[np.float64]] = {}
 
     # ------------------------------------------------------------------------------------------------
     def _object_vertices(self) -> NDArray[np.float64]:
@@ -300,20 +301,37 @@ class Simulator:
         position = nominal.position + rng.uniform(-t, t)
         return Camera(intr, make_pose(rotation, position))
 
+    def _buffers(self, name: str, shape: tuple[int, int], n: int) -> NDArray[np.float64]:
+        """``n`` reusable float64 images of ``shape`` (fresh multi-MB temporaries cost page faults)."""
+        key = (name, shape, n)
+        buf = self._image_buffers.get(key)
+        if buf is None:
+            buf = self._image_buffers[key] = np.empty((n, *shape))
+        return buf
+
     def _static_depth(
         self, origin: NDArray[np.float64], dirs: tuple[NDArray[np.float64], ...]
     ) -> NDArray[np.float64]:
-        """Ray parameter (= camera-frame z) to the table slab or the ground plane, vectorised; inf if none."""
+        """Ray parameter (= camera-frame z) to the table slab or the ground plane, vectorised; inf if none.
+
+        The result is a reused buffer, valid until the next call."""
         w = self.config.world
         lx, ly, thick = 0.5 * w.table_size[0], 0.5 * w.table_size[1], 0.04
         ox, oy, oz = origin
-        out = np.full(dirs[0].shape, np.inf).ravel()
+        out, t, tmp = self._buffers("static", dirs[0].shape, 3)
+        out, t, tmp = out.ravel(), t.ravel(), tmp.ravel()
+        out.fill(np.inf)
         dx, dy, dz = (d.ravel() for d in dirs)
         with np.errstate(divide="ignore", invalid="ignore"):
             if oz > 0:  # the table top, seen from above: most pixels end here
-                t = -oz / dz
-                hit = (t > 0) & (np.abs(ox + t * dx) <= lx) & (np.abs(oy + t * dy) <= ly)
-                out[hit] = t[hit]
+                np.divide(-oz, dz, out=t)
+                hit = t > 0
+                for o, dd, half in ((ox, dx, lx), (oy, dy, ly)):  # |o + t d| <= half, in place
+                    np.multiply(t, dd, out=tmp)
+                    np.add(tmp, o, out=tmp)
+                    np.abs(tmp, out=tmp)
+                    hit &= tmp <= half
+                np.copyto(out, t, where=hit)
                 rest = np.flatnonzero(~hit)
             else:
                 rest = np.arange(out.size)
@@ -324,12 +342,14 @@ class Simulator:
                 (oy, dy, ox, dx, ly, lx),
             ):
                 for sign in (-1.0, 1.0):  # the table's side faces
-                    t = (sign * half - axis_o) / axis_d
-                    z = oz + t * dz
-                    hit = (t > 0) & (np.abs(other_o + t * other_d) <= other_half) & (z <= 0) & (z >= -thick)
-                    sub = np.where(hit & (t < sub), t, sub)
-            t = (-w.table_height - oz) / dz
-            sub = np.where((t > 0) & (t < sub), t, sub)
+                    ts = (sign * half - axis_o) / axis_d
+                    z = oz + ts * dz
+                    side = (
+                        (ts > 0) & (np.abs(other_o + ts * other_d) <= other_half) & (z <= 0) & (z >= -thick)
+                    )
+                    sub = np.where(side & (ts < sub), ts, sub)
+            ts = (-w.table_height - oz) / dz
+            sub = np.where((ts > 0) & (ts < sub), ts, sub)
             out[rest] = sub
         return out
 
@@ -418,8 +438,12 @@ class Simulator:
         a = (np.arange(k.width, dtype=np.float64) - k.cx) / k.fx
         b = (np.arange(k.height, dtype=np.float64) - k.cy) / k.fy
         r = camera.pose[:3, :3]
-        # World direction of pixel (u, v): R @ (a_u, b_v, 1); its camera-frame z is 1.
-        dirs = tuple(r[i, 0] * a[None, :] + r[i, 1] * b[:, None] + r[i, 2] for i in range(3))
+        # World direction of pixel (u, v): R @ (a_u, b_v, 1); its camera-frame z is 1 (in reused buffers).
+        buf = self._buffers("dirs", (k.height, k.width), 3)
+        for i in range(3):
+            np.add((r[i, 0] * a)[None, :], (r[i, 1] * b)[:, None], out=buf[i])
+            buf[i] += r[i, 2]
+        dirs = (buf[0], buf[1], buf[2])
         origin = camera.position
         t = self._static_depth(origin, dirs).ravel()
         # The object's pixels: project its world bounding box, cast MuJoCo rays there only.
