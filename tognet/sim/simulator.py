@@ -112,6 +112,7 @@ class Simulator:
         self._qadr = {n: int(m.jnt_qposadr[j]) for n, j in self._jid.items()}
         self._dadr = {n: int(m.jnt_dofadr[j]) for n, j in self._jid.items()}
         self._obj_qadr = int(m.jnt_qposadr[m.joint("object").id])
+        self._hand_qadr = self._qadr["grip_x"]  # grip_y follows it
         self._obj_dadr = int(m.jnt_dofadr[m.joint("object").id])
         self._obj_body = m.body("object").id
         self._cat = np.full(m.ngeom, OTHER, dtype=np.int64)
@@ -542,20 +543,24 @@ class Simulator:
         """The object (a sphere around its body holding all its geometry) or the hand within
         ``can_hold_margin`` of a can on hold (or of ``cans``), in x and y."""
         d = self.data
-        margin = self.config.sweeping.can_hold_margin + self.config.sweeping.can_radius
-        obj = d.xpos[self._obj_body]
-        hand_x, hand_y = d.qpos[self._qadr["grip_x"]], d.qpos[self._qadr["grip_y"]]
-        hand_reach = 0.5 * self.config.gripper.max_opening + self.config.gripper.pad_size[0] + 0.03
+        sw, g = self.config.sweeping, self.config.gripper
+        margin = sw.can_hold_margin + sw.can_radius
+        hand_reach = 0.5 * g.max_opening + g.pad_size[0] + 0.03 + margin
+        obj_reach = self._object_reach + margin
+        ox, oy = float(d.xpos[self._obj_body, 0]), float(d.xpos[self._obj_body, 1])
+        hx, hy = float(d.qpos[self._hand_qadr]), float(d.qpos[self._hand_qadr + 1])
+        if cans is None:
+            where = [(float(q[0]), float(q[1])) for q, _ in self._held_cans.values()]
+        else:
+            where = [(float(d.qpos[self._can_qadr[i]]), float(d.qpos[self._can_qadr[i] + 1])) for i in cans]
         pts: NDArray[np.float64] | None = None
-        for i in self._held_cans if cans is None else cans:
-            qa = self._can_qadr[i]
-            cx, cy = d.qpos[qa], d.qpos[qa + 1]
-            if math.hypot(hand_x - cx, hand_y - cy) < hand_reach + margin:
+        for cx, cy in where:
+            if math.hypot(hx - cx, hy - cy) < hand_reach:
                 return True
-            if math.hypot(obj[0] - cx, obj[1] - cy) < self._object_reach + margin:
+            if math.hypot(ox - cx, oy - cy) < obj_reach:
                 if pts is None:  # near the bounding sphere: look at the collision vertices themselves
                     rot = d.xmat[self._obj_body].reshape(3, 3)
-                    pts = self._vertices @ rot[:2].T + obj[:2]
+                    pts = self._vertices @ rot[:2].T + d.xpos[self._obj_body, :2]
                 if np.min((pts[:, 0] - cx) ** 2 + (pts[:, 1] - cy) ** 2) < margin * margin:
                     return True
         return False
