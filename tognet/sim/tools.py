@@ -13,6 +13,7 @@ import trimesh
 
 from tognet.geometry import Grasp
 from tognet.objects.assemble import assemble_object
+from tognet.objects.compose import union
 from tognet.objects.record import ObjectRecord, write_catalog
 
 
@@ -20,10 +21,6 @@ def _box(lo: tuple[float, float, float], hi: tuple[float, float, float]) -> trim
     extents = [h - low for low, h in zip(lo, hi, strict=True)]
     centre = [(h + low) / 2 for low, h in zip(lo, hi, strict=True)]
     return trimesh.creation.box(extents=extents, transform=trimesh.transformations.translation_matrix(centre))
-
-
-def _union(parts: list[trimesh.Trimesh]) -> trimesh.Trimesh:
-    return trimesh.boolean.union(parts, engine="manifold")
 
 
 # T hammer: handle 2.5 cm square x 28 cm, head 3 (x) x 10 (y) x 3 (z) cm at the handle's +x end.
@@ -50,7 +47,7 @@ def make_t_hammer(
         split="test",
         shape_rule="T",
         part_types=["box", "box"],
-        visual=_union([handle, head]),
+        visual=union([handle, head]),
         collision_pieces=[handle, head],
         density=density,
         friction=friction,
@@ -71,7 +68,7 @@ def make_l_tool(
         split="test",
         shape_rule="L",
         part_types=["box", "box"],
-        visual=_union([long_bar, short_bar]),
+        visual=union([long_bar, short_bar]),
         collision_pieces=[long_bar, short_bar],
         density=density,
         friction=friction,
