@@ -4,7 +4,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from tognet.geometry import Grasp
+from tognet.geometry import Camera, CameraIntrinsics, Grasp
+from tognet.geometry.transforms import make_pose, rot_x
 from tognet.sim import FailureReason, SimConfig, Simulator
 from tognet.sim.checks import HAMMER_GRASPS, hammer_action
 from tognet.sim.tools import grasp_on_object, make_test_tools
@@ -25,18 +26,15 @@ def far_end_grasp(sim):
     return grasp_on_object(pos, rot, *HAMMER_GRASPS["far_end"][:2])
 
 
-def test_depth_image_matches_full_ray_casting_and_sees_the_object(hammer_sim):
-    obs = hammer_sim.reset(3)
-    cam = obs.camera
-    assert obs.depth.shape == (424, 512) and obs.depth.dtype == np.float32
-    # Every pixel agrees with MuJoCo's ray caster over the whole image (table, ground and object).
+def full_ray_cast(sim, cam):
+    """Every pixel cast with MuJoCo's ray caster at the table, the ground and the object (NaN: no hit)."""
     dirs = cam.pixel_directions().reshape(-1, 3) @ cam.pose[:3, :3].T
     n = len(dirs)
     geomid, dist = np.empty(n, np.int32), np.empty(n)
     groups = np.array([1, 1, 0, 0, 0, 0], np.uint8)
     mujoco.mj_multiRay(
-        hammer_sim.model,
-        hammer_sim.data,
+        sim.model,
+        sim.data,
         cam.position,
         np.ascontiguousarray(dirs).ravel(),
         groups,
@@ -48,8 +46,15 @@ def test_depth_image_matches_full_ray_casting_and_sees_the_object(hammer_sim):
         n,
         4.5,
     )
-    full = np.where(geomid >= 0, dist, np.nan).reshape(obs.depth.shape)
-    np.testing.assert_allclose(obs.depth, full, atol=1e-5)
+    return np.where(geomid >= 0, dist, np.nan).reshape(cam.intrinsics.height, cam.intrinsics.width)
+
+
+def test_depth_image_matches_full_ray_casting_and_sees_the_object(hammer_sim):
+    obs = hammer_sim.reset(3)
+    cam = obs.camera
+    assert obs.depth.shape == (424, 512) and obs.depth.dtype == np.float32
+    # Every pixel agrees with MuJoCo's ray caster over the whole image (table, ground and object).
+    np.testing.assert_allclose(obs.depth, full_ray_cast(hammer_sim, cam), atol=1e-5)
     # Deprojected, the image shows the table top at z = 0 and the tool up to 3 cm above it.
     pts = cam.deproject(obs.depth).reshape(-1, 3)
     on_table = (np.abs(pts[:, 0]) < 0.6) & (np.abs(pts[:, 1]) < 0.37)
@@ -59,6 +64,23 @@ def test_depth_image_matches_full_ray_casting_and_sees_the_object(hammer_sim):
     assert 300 < len(tool) < 20000 and tool[:, 2].max() == pytest.approx(0.03, abs=0.004)
     com = hammer_sim.data.xipos[hammer_sim._obj_body]
     assert np.linalg.norm(tool[:, :2].mean(axis=0) - com[:2]) < 0.05
+
+
+@pytest.mark.parametrize(
+    "offset, tilt", [((0.0, 0.0, 0.02), 0.0), ((0.05, -0.3, -0.1), 0.6)], ids=["in-the-tool", "below-table"]
+)
+def test_depth_image_from_odd_camera_poses_matches_full_ray_casting(hammer_sim, offset, tilt):
+    # A camera inside the tool's handle has mesh vertices behind it (the mesh rasteriser declines and
+    # MuJoCo's rays take over); one below the table top cannot use the table's outline. Both still match.
+    hammer_sim.reset(5)
+    com = hammer_sim.data.xipos[hammer_sim._obj_body]
+    intr = CameraIntrinsics(width=64, height=48, fx=40.0, fy=40.0, cx=31.5, cy=23.5)
+    down = Camera.looking_down(intr, (0, 0, 1)).pose[:3, :3]
+    cam = Camera(intr, make_pose(rot_x(tilt) @ down, (com[0] + offset[0], com[1] + offset[1], offset[2])))
+    depth = hammer_sim.render_depth(cam)
+    want = full_ray_cast(hammer_sim, cam)
+    assert np.isfinite(want).sum() > 100
+    np.testing.assert_allclose(depth, want, atol=1e-5)
 
 
 def test_camera_is_disturbed_per_scene_but_seeded(hammer_sim):

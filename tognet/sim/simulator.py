@@ -35,6 +35,7 @@ from scipy.spatial import ConvexHull, QhullError
 
 from tognet.errors import TognetError
 from tognet.geometry import Camera, CameraIntrinsics, Grasp
+from tognet.geometry.raster import mesh_depth
 from tognet.geometry.transforms import make_pose, rot_x, rot_y, rot_z
 from tognet.objects.record import ObjectRecord
 from tognet.sim.config import SimConfig
@@ -50,8 +51,21 @@ _HAND = np.isin(np.arange(10), (FINGER_L, FINGER_R, GRIPPER))
 _PROPS = np.isin(np.arange(10), (CAN, PEG, SLOT))
 
 
-#: Pixel stride of the coarse ray-casting pass (3 px is about 6 mm on the table: thinner parts can be missed).
-_STRIDE = 3
+def _rows_in_hull(
+    points: NDArray[np.float64], grow: float, height: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Per image row v = 0 .. height - 1, the interval [lo, hi] of u inside the convex hull of the 2-D
+    ``points`` grown by ``grow`` px (shrunk if negative); hi < lo on rows it does not reach."""
+    hull = ConvexHull(points)
+    nx, ny, off = (col[None, :] for col in hull.equations.T)  # unit normals: n . p + off <= 0 inside
+    rows = np.arange(height, dtype=np.float64)[:, None]
+    rhs = grow - off - ny * rows  # nx * u <= rhs
+    with np.errstate(divide="ignore", invalid="ignore"):
+        bound = rhs / nx
+    lo = np.max(np.where(nx < 0, bound, -np.inf), axis=1)
+    hi = np.min(np.where(nx > 0, bound, np.inf), axis=1)
+    flat_ok = np.all(np.where(nx == 0, rhs >= 0, True), axis=1)
+    return lo, np.where(flat_ok, hi, -np.inf)
 
 
 class SimulationError(TognetError):
@@ -142,6 +156,12 @@ class Simulator:
         self._vertices = self._object_vertices()
         self._visual_geom = m.geom("object_visual").id
         self._visual_mesh = int(m.geom_dataid[self._visual_geom])
+        # The visual mesh as MuJoCo compiled it (geom frame), for the depth camera.
+        mid = self._visual_mesh
+        va, vn = int(m.mesh_vertadr[mid]), int(m.mesh_vertnum[mid])
+        fa, fn = int(m.mesh_faceadr[mid]), int(m.mesh_facenum[mid])
+        self._visual_local = m.mesh_vert[va : va + vn].astype(np.float64)
+        self._visual_faces = m.mesh_face[fa : fa + fn].astype(np.int64)
         # Radius (m) around the object's body origin that holds all of its collision geometry.
         self._object_reach = float(np.max(np.linalg.norm(self._vertices, axis=1)))
         # Cans on hold while the tool is far from them: {can index: its (qpos, qvel) when put on hold}.
@@ -153,8 +173,7 @@ class Simulator:
         self._dt = float(m.opt.timestep)
         self.timers = {"physics": 0.0, "raycast": 0.0}
         self.steps = 0  # physics steps taken since construction (for benchmarks)
-        self._ray_dirs_cam: NDArray[np.float64] | None = None
-        self._image_buffers: dict[tuple[str, tuple[int, int], int], NDArray[np.float64]] = {}
+        self._image_buffers: dict[tuple[str, int, str], NDArray[Any]] = {}
 
     # ------------------------------------------------------------------------------------------------
     def _object_vertices(self) -> NDArray[np.float64]:
@@ -302,37 +321,32 @@ class Simulator:
         position = nominal.position + rng.uniform(-t, t)
         return Camera(intr, make_pose(rotation, position))
 
-    def _buffers(self, name: str, shape: tuple[int, int], n: int) -> NDArray[np.float64]:
-        """``n`` reusable float64 images of ``shape`` (fresh multi-MB temporaries cost page faults)."""
-        key = (name, shape, n)
+    def _buffer(self, name: str, size: int, dtype: type = np.float64) -> NDArray[Any]:
+        """A reusable flat array (fresh multi-MB temporaries cost page faults); valid until reused."""
+        key = (name, size, np.dtype(dtype).str)
         buf = self._image_buffers.get(key)
         if buf is None:
-            buf = self._image_buffers[key] = np.empty((n, *shape))
+            buf = self._image_buffers[key] = np.empty(size, dtype=dtype)
         return buf
 
-    def _static_depth(
-        self, origin: NDArray[np.float64], dirs: tuple[NDArray[np.float64], ...]
+    def _static_rays(
+        self,
+        origin: NDArray[np.float64],
+        dx: NDArray[np.float64],
+        dy: NDArray[np.float64],
+        dz: NDArray[np.float64],
     ) -> NDArray[np.float64]:
-        """Ray parameter (= camera-frame z) to the table slab or the ground plane, vectorised; inf if none.
-
-        The result is a reused buffer, valid until the next call."""
+        """Ray parameter (= camera-frame z) to the table slab or the ground plane for rays with world
+        directions (dx, dy, dz) from ``origin``; inf if they hit neither."""
         w = self.config.world
         lx, ly, thick = 0.5 * w.table_size[0], 0.5 * w.table_size[1], 0.04
         ox, oy, oz = origin
-        out, t, tmp = self._buffers("static", dirs[0].shape, 3)
-        out, t, tmp = out.ravel(), t.ravel(), tmp.ravel()
-        out.fill(np.inf)
-        dx, dy, dz = (d.ravel() for d in dirs)
+        out = np.full(dz.shape, np.inf)
         with np.errstate(divide="ignore", invalid="ignore"):
-            if oz > 0:  # the table top, seen from above: most pixels end here
-                np.divide(-oz, dz, out=t)
-                hit = t > 0
-                for o, dd, half in ((ox, dx, lx), (oy, dy, ly)):  # |o + t d| <= half, in place
-                    np.multiply(t, dd, out=tmp)
-                    np.add(tmp, o, out=tmp)
-                    np.abs(tmp, out=tmp)
-                    hit &= tmp <= half
-                np.copyto(out, t, where=hit)
+            if oz > 0:  # the table top, seen from above
+                t = -oz / dz
+                hit = (t > 0) & (np.abs(ox + t * dx) <= lx) & (np.abs(oy + t * dy) <= ly)
+                out[hit] = t[hit]
                 rest = np.flatnonzero(~hit)
             else:
                 rest = np.arange(out.size)
@@ -354,18 +368,38 @@ class Simulator:
             out[rest] = sub
         return out
 
+    def _table_rows(
+        self, camera: Camera
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None:
+        """Per image row, the columns whose rays surely end on the table top, [top_lo, top_hi] (its
+        projected outline shrunk by 1 px), and the interval [slab_lo, slab_hi] outside which they surely
+        miss the table slab (its projected outline grown by 1 px) and end on the ground. Pixels between
+        the two get the exact test. None when the outlines cannot be used (a corner behind the camera)."""
+        w, k = self.config.world, camera.intrinsics
+        lx, ly, thick = 0.5 * w.table_size[0], 0.5 * w.table_size[1], 0.04
+        corners = np.array([[sx * lx, sy * ly, z] for z in (0.0, -thick) for sx in (-1, 1) for sy in (-1, 1)])
+        uv, z = camera.project(corners)
+        if camera.pose[2, 3] <= 0 or not np.all(z > 1e-6):
+            return None
+        try:
+            top = _rows_in_hull(uv[:4], -1.0, k.height)
+            slab = _rows_in_hull(uv, 1.0, k.height)
+        except QhullError:
+            return None
+        return (*top, *slab)
+
     def _cast_object_rays(
         self,
         origin: NDArray[np.float64],
-        flat: list[NDArray[np.float64]],
+        dirs: NDArray[np.float64],
         idx: NDArray[np.int64],
         t: NDArray[np.float64],
-    ) -> NDArray[np.bool_]:
-        """Cast the rays of pixels ``idx`` at the object's visual mesh; nearer hits overwrite ``t``."""
+    ) -> None:
+        """Cast the rays of pixels ``idx`` (world directions ``dirs``, (n, 3)) at the object's visual mesh
+        with MuJoCo's ray caster; nearer hits overwrite ``t``."""
         n = len(idx)
         if n == 0:
-            return np.zeros(0, dtype=bool)
-        sub = np.stack([d[idx] for d in flat], axis=1)
+            return
         groups = np.zeros(6, dtype=np.uint8)
         groups[GROUP_OBJECT_VISUAL] = 1  # the table and the ground are already in t
         geomid = np.empty(n, dtype=np.int32)
@@ -374,7 +408,7 @@ class Simulator:
             self.model,
             self.data,
             origin.astype(np.float64),
-            sub.ravel(),
+            np.ascontiguousarray(dirs).ravel(),
             groups,
             0,
             -1,
@@ -386,109 +420,69 @@ class Simulator:
         )
         hit = (geomid >= 0) & (dist < t[idx])
         t[idx[hit]] = dist[hit]
-        return hit
-
-    def _hull_test(self, camera: Camera) -> Any:
-        """A test ``inside(u, v)`` of pixel centres against the convex hull of the object's visual mesh
-        projected into the image, grown by 1.5 px (a ray outside it cannot hit the mesh). Everything
-        passes when the hull cannot be built (a vertex behind the camera, a degenerate outline)."""
-        m, d = self.model, self.data
-        gid, mid = self._visual_geom, self._visual_mesh
-        adr, num = int(m.mesh_vertadr[mid]), int(m.mesh_vertnum[mid])
-        local = m.mesh_vert[adr : adr + num].astype(np.float64)
-        world = local @ d.geom_xmat[gid].reshape(3, 3).T + d.geom_xpos[gid]
-        uv, z = camera.project(world)
-
-        def everything(u: NDArray[np.int64], v: NDArray[np.int64]) -> NDArray[np.bool_]:
-            return np.ones(np.shape(u), dtype=bool)
-
-        if not np.all(z > 0):
-            return everything
-        try:
-            hull = ConvexHull(uv)
-        except QhullError:
-            return everything
-        # Rows (nx, ny, offset) with unit normals: n . p + offset <= 0 inside; grown: <= 1.5 px. On image
-        # row v each edge bounds u from one side, so the grown hull is an interval [lo, hi] per row.
-        nx, ny, off = (col[None, :] for col in hull.equations.T)
-        rows = np.arange(camera.intrinsics.height, dtype=np.float64)[:, None]
-        rhs = 1.5 - off - ny * rows  # nx * u <= rhs
-        with np.errstate(divide="ignore", invalid="ignore"):
-            bound = rhs / nx
-        lo = np.max(np.where(nx < 0, bound, -np.inf), axis=1)
-        hi = np.min(np.where(nx > 0, bound, np.inf), axis=1)
-        flat_ok = np.all(np.where(nx == 0, rhs >= 0, True), axis=1)
-        hi = np.where(flat_ok, hi, -np.inf)
-
-        def inside(u: NDArray[np.int64], v: NDArray[np.int64]) -> NDArray[np.bool_]:
-            return (u >= lo[v]) & (u <= hi[v])
-
-        return inside
 
     def render_depth(self, camera: Camera, rng: np.random.Generator | None = None) -> NDArray[np.float32]:
         """Depth image (camera-frame z, metres, NaN holes) by ray casting (no OpenGL).
 
-        The table and the ground are intersected analytically for every pixel; MuJoCo's ray caster
-        (``mj_multiRay``, restricted to the object's visual mesh) runs only for the
-        pixels inside the projection of the object's bounding box. Task props and the gripper (parked
-        out of view) are not seen.
+        Every pixel's ray ends where a ray caster would end it: on the table slab, the ground plane or
+        the object's visual mesh, whichever is nearest. The table and the ground are intersected
+        analytically (pixels well inside the table top's outline in one vectorised division, the rest
+        with the exact slab test); the object's mesh by exact ray-triangle intersection for the pixels
+        its triangles cover (:func:`tognet.geometry.raster.mesh_depth`), or by MuJoCo's ray caster
+        (``mj_multiRay``) if the mesh reaches behind the camera. Task props and the gripper (parked out
+        of view) are not seen.
         """
         t0 = time.perf_counter()
         c = self.config.camera
         k = camera.intrinsics
+        n_pix = k.width * k.height
         a = (np.arange(k.width, dtype=np.float64) - k.cx) / k.fx
         b = (np.arange(k.height, dtype=np.float64) - k.cy) / k.fy
         r = camera.pose[:3, :3]
-        # World direction of pixel (u, v): R @ (a_u, b_v, 1); its camera-frame z is 1 (in reused buffers).
-        buf = self._buffers("dirs", (k.height, k.width), 3)
-        for i in range(3):
-            np.add((r[i, 0] * a)[None, :], (r[i, 1] * b)[:, None], out=buf[i])
-            buf[i] += r[i, 2]
-        dirs = (buf[0], buf[1], buf[2])
         origin = camera.position
-        t = self._static_depth(origin, dirs).ravel()
-        # The object's pixels: project its world bounding box, cast MuJoCo rays there only.
-        pos, rot = self.object_pose()
-        pts = self._vertices @ rot.T + pos
-        lo, hi = pts.min(axis=0), pts.max(axis=0)
-        corners = np.array(
-            [[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
-        )
-        uv, z = camera.project(corners)
-        if np.all(z > 0):
-            u0, v0 = np.floor(uv.min(axis=0)).astype(int) - 2
-            u1, v1 = np.ceil(uv.max(axis=0)).astype(int) + 2
-            u0, v0 = max(u0, 0), max(v0, 0)
-            u1, v1 = min(u1, k.width - 1), min(v1, k.height - 1)
-            if u1 >= u0 and v1 >= v0:
-                # Coarse pass on every STRIDE-th pixel of the box, then every pixel near a coarse hit.
-                # Only pixels inside the mesh's projected convex hull are cast: the others cannot hit.
-                flat = [dd.ravel() for dd in dirs]
-                vv, uu = np.mgrid[v0 : v1 + 1 : _STRIDE, u0 : u1 + 1 : _STRIDE]
-                coarse = (vv * k.width + uu).ravel()
-                inside = self._hull_test(camera)
-                hits = np.zeros(coarse.size, dtype=bool)
-                cast = inside(uu.ravel(), vv.ravel())
-                hits[cast] = self._cast_object_rays(origin, flat, coarse[cast], t)
-                if np.any(hits):
-                    # Grow the coarse hits by one cell and cast every pixel of those cells.
-                    grid = np.pad(hits.reshape(vv.shape), 1)
-                    grown = np.zeros(vv.shape, dtype=bool)
-                    for dv in range(3):
-                        for du in range(3):
-                            grown |= grid[dv : dv + vv.shape[0], du : du + vv.shape[1]]
-                    cells_v, cells_u = np.nonzero(grown)
-                    offs = np.arange(-(_STRIDE // 2), _STRIDE - _STRIDE // 2)
-                    pv = (vv[cells_v, cells_u][:, None, None] + offs[None, :, None]).repeat(_STRIDE, axis=2)
-                    pu = (uu[cells_v, cells_u][:, None, None] + offs[None, None, :]).repeat(_STRIDE, axis=1)
-                    ok = (pv >= 0) & (pv < k.height) & (pu >= 0) & (pu < k.width)
-                    ok &= inside(pu, pv)
-                    todo = np.zeros(k.width * k.height, dtype=bool)
-                    todo[pv[ok] * k.width + pu[ok]] = True
-                    todo[coarse] = False  # the coarse pixels are done
-                    self._cast_object_rays(origin, flat, np.flatnonzero(todo), t)
+        # World direction of pixel (u, v): R @ (a_u, b_v, 1), its camera-frame z is 1, so the ray
+        # parameter of a hit is its depth. Row i of R gives world axis i: ((r_i0 a_u) + (r_i1 b_v)) + r_i2.
+        ra = [r[i, 0] * a for i in range(3)]
+        rb = [r[i, 1] * b for i in range(3)]
+        dz = self._buffer("dz", n_pix).reshape(k.height, k.width)
+        np.add(ra[2][None, :], rb[2][:, None], out=dz)
+        dz += r[2, 2]
+        t = self._buffer("t", n_pix)
+        rows = self._table_rows(camera)
+        if rows is None:
+            todo = np.arange(n_pix)
+        else:
+            top_lo, top_hi, slab_lo, slab_hi = rows
+            cols = np.arange(k.width, dtype=np.float64)[None, :]
+            off_slab = self._buffer("off_slab", n_pix, np.bool_).reshape(k.height, k.width)
+            np.less(cols, slab_lo[:, None], out=off_slab)
+            off_slab |= cols > slab_hi[:, None]
+            flat_dz, off = dz.ravel(), off_slab.ravel()
+            with np.errstate(divide="ignore"):
+                # The table top's plane inside the slab's outline, the ground's plane outside it.
+                np.divide(-origin[2], flat_dz, out=t, where=~off)
+                np.divide(-self.config.world.table_height - origin[2], flat_dz, out=t, where=off)
+            if not np.all(flat_dz < 0):  # rays that do not go down never reach either plane
+                t[~(flat_dz < 0)] = np.inf
+            exact = self._buffer("exact", n_pix, np.bool_).reshape(k.height, k.width)
+            np.less(cols, top_lo[:, None], out=exact)
+            exact |= cols > top_hi[:, None]
+            exact &= ~off_slab
+            todo = np.flatnonzero(exact.ravel())
+        vv, uu = np.divmod(todo, k.width)
+        dirs = np.stack([ra[i][uu] + rb[i][vv] + r[i, 2] for i in range(3)], axis=1)
+        t[todo] = self._static_rays(origin, dirs[:, 0], dirs[:, 1], dirs[:, 2])
+        # The object's visual mesh.
+        d, gid = self.data, self._visual_geom
+        world = self._visual_local @ d.geom_xmat[gid].reshape(3, 3).T + d.geom_xpos[gid]
+        intr = (k.fx, k.fy, k.cx, k.cy, k.width, k.height)
+        if not mesh_depth(r, origin, intr, world, self._visual_faces, t):
+            # A vertex behind the camera: MuJoCo's ray caster on every pixel (slow, never seen in use).
+            vv, uu = np.divmod(np.arange(n_pix), k.width)
+            every = np.stack([ra[i][uu] + rb[i][vv] + r[i, 2] for i in range(3)], axis=1)
+            self._cast_object_rays(origin, every, np.arange(n_pix), t)
         depth = t.astype(np.float32)
-        depth[~np.isfinite(depth) | (depth > c.max_range)] = np.nan
+        depth[~(depth <= c.max_range)] = np.nan  # also inf (no hit) and NaN
         if rng is not None and c.depth_noise > 0:
             depth += rng.normal(0.0, c.depth_noise, size=depth.shape).astype(np.float32)
         if rng is not None and c.hole_fraction > 0:
