@@ -55,10 +55,13 @@ def test_parked_cans_touch_nothing_and_every_trial_gets_its_cans_back(tmp_path):
     assert again.task_success and again.info["sim_time"] == first.info["sim_time"]
 
 
-def _hold_run(tmp_path, margin, action_shift=(0.0, 0.0, 0.0, 0.0)):
+def _hold_run(tmp_path, margin, action_shift=(0.0, 0.0, 0.0, 0.0), lite=True, lite_steps=None):
     cfg = SimConfig()
     cfg = cfg.replace(sweeping=cfg.sweeping.replace(n_cans=(2,), can_hold_margin=margin))
     sim = Simulator(cfg, "sweeping", make_l_tool(tmp_path))
+    assert sim._lite is not None
+    if not lite:
+        sim._lite = None  # the fallback: cans kept in the full model, contact-free and floating
     sim.reset(5)
     held_steps = [0]
     step = sim._step
@@ -66,6 +69,8 @@ def _hold_run(tmp_path, margin, action_shift=(0.0, 0.0, 0.0, 0.0)):
     def counting_step(n):
         step(n)
         held_steps[0] += n if sim._held_cans else 0
+        if lite_steps is not None:
+            lite_steps[0] += n if sim.model is not sim._full[0] else 0
 
     sim._step = counting_step
     pos, rot = sim.object_pose()
@@ -86,3 +91,15 @@ def test_cans_on_hold_while_the_tool_is_far_and_back_before_it_arrives(tmp_path)
     hit_always, _ = _hold_run(tmp_path / "d", 10.0, onto)
     assert n_hit > 0
     assert hit.failure == hit_always.failure == FailureReason.COLLISION_BEFORE_MOTION
+
+
+def test_world_without_the_cans_moves_everything_else_exactly_as_the_full_world(tmp_path):
+    # While the cans are on hold the world is stepped without them; the full world with the cans kept
+    # floating and contact-free (what a GIF recorder gets) must give the very same trial, to the last bit.
+    lite_steps = [0]
+    lite, n_held = _hold_run(tmp_path / "a", 0.1, lite_steps=lite_steps)
+    full, n_full = _hold_run(tmp_path / "b", 0.1, lite=False)
+    assert n_held == n_full > 300 and lite_steps[0] == n_held
+    assert lite.task_success and full.task_success
+    for key in ("sim_time", "in_hand", "in_hand_start", "start_pose", "cans_on_ground"):
+        assert lite.info[key] == full.info[key], key

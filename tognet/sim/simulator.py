@@ -119,6 +119,16 @@ class Simulator:
         except ValueError as exc:  # MuJoCo's compile errors
             raise SimulationError(f"object {obj.object_id}: MuJoCo could not build the world: {exc}") from exc
         self.data = mujoco.MjData(self.model)
+        self._full = (self.model, self.data)
+        # Sweeping: the same world without the cans, stepped while the cans are on hold (_hold_cans).
+        self._lite: tuple[mujoco.MjModel, mujoco.MjData] | None = None
+        if task == "sweeping":
+            lite = mujoco.MjModel.from_xml_string(world_xml(config, obj, "grasping"))
+            full = self.model
+            n = MAX_CANS
+            fewer = {"nq": 7 * n, "nv": 6 * n, "nbody": n, "ngeom": n, "nu": 0, "na": 0}
+            if all(getattr(lite, f) == getattr(full, f) - k for f, k in fewer.items()):
+                self._lite = (lite, mujoco.MjData(lite))
         m = self.model
         self._jid = {
             n: m.joint(n).id for n in ("grip_x", "grip_y", "grip_z", "grip_yaw", "finger_l", "finger_r")
@@ -164,8 +174,8 @@ class Simulator:
         self._visual_faces = m.mesh_face[fa : fa + fn].astype(np.int64)
         # Radius (m) around the object's body origin that holds all of its collision geometry.
         self._object_reach = float(np.max(np.linalg.norm(self._vertices, axis=1)))
-        # Cans on hold while the tool is far from them: {can index: its (qpos, qvel) when put on hold}.
-        self._held_cans: dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
+        # Cans on hold while the tool is far from them: {can: its (qpos, qvel, solver warm start) then}.
+        self._held_cans: dict[int, tuple[NDArray[np.float64], ...]] = {}
         self._state_spec = mujoco.mjtState.mjSTATE_INTEGRATION
         self._saved: NDArray[np.float64] | None = None
         self._scene: dict[str, Any] = {}
@@ -248,8 +258,8 @@ class Simulator:
         monitor: Any = None,
     ) -> None:
         """Move the setpoints in a straight line to ``target`` / ``yaw`` at the given rates."""
-        d, dt = self.data, self._dt
-        cur = d.act[:4].copy()
+        dt = self._dt
+        cur = self.data.act[:4].copy()
         goal = cur.copy()
         if target is not None:
             goal[:3] = target
@@ -267,24 +277,24 @@ class Simulator:
         profile = np.minimum(1.0, np.minimum(k, n - k) / ramp)
         profile /= profile.sum() * chunk
         for weight in profile:
-            d.ctrl[:4] = delta * weight
+            self.data.ctrl[:4] = delta * weight
             self._step(every)
             if monitor is not None:
                 monitor()  # first: a can that just hit the ground is parked before the stability check
             self._check_stable()
-        d.ctrl[:4] = 0.0
-        d.act[:4] = goal  # remove round-off
+        self.data.ctrl[:4] = 0.0
+        self.data.act[:4] = goal  # remove round-off
 
     def _converge(self, tol: float = 0.002, max_time: float = 0.2, monitor: Any = None) -> None:
         """Let the base catch up with its setpoints (servo lag) until within ``tol`` (m, rad) and slow."""
-        d = self.data
         q = [self._qadr[n] for n in ("grip_x", "grip_y", "grip_z", "grip_yaw")]
         v = [self._dadr[n] for n in ("grip_x", "grip_y", "grip_z", "grip_yaw")]
         self._wait(
             max_time,
             monitor,
             until=lambda: bool(
-                np.max(np.abs(d.qpos[q] - d.act[:4])) < tol and np.max(np.abs(d.qvel[v])) < 0.05
+                np.max(np.abs(self.data.qpos[q] - self.data.act[:4])) < tol
+                and np.max(np.abs(self.data.qvel[v])) < 0.05
             ),
         )
 
@@ -510,27 +520,60 @@ class Simulator:
 
     def _hold_cans(self, n: int) -> None:
         """Put the ``n`` cans in play on hold while the tool is far from them: standing still on the
-        table they are a fixed point of the physics, yet their table contacts cost about a third of
-        every step. On hold a can keeps its state aside, touches nothing and floats at rest; it is
-        given its state back (:meth:`_release_cans`) before the tool or the hand can reach it, so it
-        goes on exactly as it stood."""
+        table they are a fixed point of the physics, yet they cost a good part of every step (their
+        table contacts, and their 6 degrees of freedom each even without contacts). On hold a can keeps
+        its state aside and is given it back (:meth:`_release_cans`) before the tool or the hand can
+        reach it, so it goes on exactly as it stood. Meanwhile the world is stepped without it: in the
+        same world built without the cans (``_lite``; the cans are the model's last bodies, so every
+        other index is the same and the other bodies' motion is the same to the last bit), or, while a
+        recorder needs the full model, with the cans floating contact-free and gravity-compensated."""
         if not n or self._near_cans(range(n)):
             return
         d = self.data
         for i in range(n):
             qa, da = self._can_qadr[i], self._can_dadr[i]
-            self._held_cans[i] = (d.qpos[qa : qa + 7].copy(), d.qvel[da : da + 6].copy())
+            ws = d.qacc_warmstart[da : da + 6].copy()
+            self._held_cans[i] = (d.qpos[qa : qa + 7].copy(), d.qvel[da : da + 6].copy(), ws)
+        if self._lite is not None and self._recorder is None:
+            self._switch_model(lite=True)
+            return
+        for i in range(n):
+            da = self._can_dadr[i]
             d.qvel[da : da + 6] = 0.0
             self._can_active(i, False)
 
     def _release_cans(self) -> None:
         """Every can on hold back in play, in the state it was put on hold in."""
+        if self.data is not self._full[1]:
+            self._switch_model(lite=False)
         d = self.data
-        for i, (qpos, qvel) in self._held_cans.items():
+        for i, (qpos, qvel, warmstart) in self._held_cans.items():
             qa, da = self._can_qadr[i], self._can_dadr[i]
             d.qpos[qa : qa + 7] = qpos
             d.qvel[da : da + 6] = qvel
+            d.qacc_warmstart[da : da + 6] = warmstart  # the solver starts from where it stood
             self._can_active(i, True)
+        self._held_cans = {}
+
+    def _switch_model(self, lite: bool) -> None:
+        """Step the world without the cans (``lite``) or with them from now on, carrying the state of
+        everything else over (time, positions, velocities, actuators, controls, solver warm start)."""
+        assert self._lite is not None
+        (fm, fd), (lm, ld) = self._full, self._lite
+        src, dst = (fd, ld) if lite else (ld, fd)
+        nq, nv, na, nu = lm.nq, lm.nv, lm.na, lm.nu
+        dst.time = src.time
+        dst.qpos[:nq] = src.qpos[:nq]
+        dst.qvel[:nv] = src.qvel[:nv]
+        dst.act[:na] = src.act[:na]
+        dst.ctrl[:nu] = src.ctrl[:nu]
+        dst.qacc_warmstart[:nv] = src.qacc_warmstart[:nv]
+        self.model, self.data = (lm, ld) if lite else (fm, fd)
+        mujoco.mj_forward(self.model, self.data)
+
+    def _back_to_full_model(self) -> None:
+        """After a trial: the full world again (its state is restored from the scene next)."""
+        self.model, self.data = self._full
         self._held_cans = {}
 
     def _near_cans(self, cans: Any = None) -> bool:
@@ -544,7 +587,7 @@ class Simulator:
         ox, oy = float(d.xpos[self._obj_body, 0]), float(d.xpos[self._obj_body, 1])
         hx, hy = float(d.qpos[self._hand_qadr]), float(d.qpos[self._hand_qadr + 1])
         if cans is None:
-            where = [(float(q[0]), float(q[1])) for q, _ in self._held_cans.values()]
+            where = [(float(q[0]), float(q[1])) for q, *_ in self._held_cans.values()]
         else:
             where = [(float(d.qpos[self._can_qadr[i]]), float(d.qpos[self._can_qadr[i] + 1])) for i in cans]
         pts: NDArray[np.float64] | None = None
@@ -703,8 +746,8 @@ class Simulator:
             info["unstable"] = str(exc)
             result = TrialResult(False, False, False, FailureReason.UNSTABLE, info)
         finally:
-            self._held_cans = {}
-        info["sim_time"] = float(self.data.time)
+            info["sim_time"] = float(self.data.time)
+            self._back_to_full_model()
         # Back to the settled scene, so object_pose(), default_grasp() and the next trial see it.
         mujoco.mj_setState(self.model, self.data, self._saved, self._state_spec)
         self._activate_cans(n_cans)
@@ -714,7 +757,6 @@ class Simulator:
     def _execute(
         self, grasp: Grasp, action: Any, rng: np.random.Generator, info: dict[str, Any]
     ) -> TrialResult:
-        m, d = self.model, self.data
         g, e = self.config.gripper, self.config.episode
         pn, hn, yn = e.grasp_position_noise, e.grasp_height_noise, e.grasp_yaw_noise
         pos = grasp.position + rng.uniform([-pn, -pn, -hn], [pn, pn, hn])
@@ -724,7 +766,7 @@ class Simulator:
             info["grasp_z_clamped"] = float(pos[2])
             pos[2] = min_z
         self._set_gripper(pos + np.array([0, 0, g.approach_height]), yaw, g.max_opening)
-        mujoco.mj_forward(m, d)
+        mujoco.mj_forward(self.model, self.data)
         self._hold_cans(len(self._scene["layout"].get("cans", [])))
         # Approach, close, lift, hold.
         try:
@@ -733,13 +775,13 @@ class Simulator:
         except _Landed:
             info["landed_on_object"] = True
             return TrialResult(False, False, True, FailureReason.GRASP_FAILED, info)
-        d.ctrl[4] = d.ctrl[5] = -0.02
+        self.data.ctrl[4] = self.data.ctrl[5] = -0.02
         fingers = [self._dadr["finger_l"], self._dadr["finger_r"]]
         closing = {"steps": 0}
 
         def closed() -> bool:  # both fingers stopped (on the object or fully closed)
             closing["steps"] += 1
-            return closing["steps"] >= 3 and bool(np.max(np.abs(d.qvel[fingers])) < 0.03)
+            return closing["steps"] >= 3 and bool(np.max(np.abs(self.data.qvel[fingers])) < 0.03)
 
         self._wait(g.close_time, until=closed)
         lift_z = max(g.lift_height, pos[2] + g.min_lift)
@@ -748,7 +790,7 @@ class Simulator:
         held = self._held()
         lifted = self._object_clear()
         info["in_hand"] = self._in_hand().tolist()
-        info["object_lift"] = float(d.xipos[self._obj_body][2] - self._scene["object_com"][2])
+        info["object_lift"] = float(self.data.xipos[self._obj_body][2] - self._scene["object_com"][2])
         grasp_ok = held and lifted
         if not grasp_ok:
             return TrialResult(False, False, True, FailureReason.GRASP_FAILED, info)
@@ -760,7 +802,7 @@ class Simulator:
         start = start + rng.uniform(-an, an, size=3)
         start_yaw += float(rng.uniform(-ayn, ayn))
         # Turn the wrist the short way round to the start yaw.
-        cur_yaw = float(d.act[3])
+        cur_yaw = float(self.data.act[3])
         start_yaw = cur_yaw + (start_yaw - cur_yaw + np.pi) % (2 * np.pi) - np.pi
         if start[2] < min_z:  # the arm does not drive the fingertips into the table
             info["start_z_clamped"] = float(start[2])
@@ -770,10 +812,10 @@ class Simulator:
         hit_before = [False]
 
         def watch_props() -> None:
-            n = d.ncon
+            n = self.data.ncon
             if hit_before[0] or not n:
                 return
-            cats = self._cat[d.contact.geom[:n]]
+            cats = self._cat[self.data.contact.geom[:n]]
             a, b = cats[:, 0], cats[:, 1]
             if np.any((_TOOL_SIDE[a] & _PROPS[b]) | (_TOOL_SIDE[b] & _PROPS[a])):
                 hit_before[0] = True
