@@ -68,10 +68,10 @@ class Camera:
     ) -> Camera:
         """A camera at ``position`` looking straight down (-z world); image x is world x rotated by yaw."""
         c, s = np.cos(yaw), np.sin(yaw)
-        # camera x -> world (c, s, 0); camera z -> world -z; camera y = z cross x.
+        # camera x -> world (c, s, 0); camera z -> world -z; camera y = z cross x = (s, -c, 0).
         x_axis = np.array([c, s, 0.0])
         z_axis = np.array([0.0, 0.0, -1.0])
-        y_axis = np.cross(z_axis, x_axis)
+        y_axis = np.array([s, -c, 0.0])
         rotation = np.stack([x_axis, y_axis, z_axis], axis=1)
         return cls(intrinsics, make_pose(rotation, position))
 

@@ -42,7 +42,11 @@ def mesh_depth(
     v = cam[:, 1] / z * fy + cy
     f = np.asarray(faces, dtype=np.int64)
     p0, p1, p2 = cam[f[:, 0]], cam[f[:, 1]], cam[f[:, 2]]
-    normal = np.cross(p1 - p0, p2 - p0)
+    e1, e2 = p1 - p0, p2 - p0
+    normal = np.empty_like(e1)  # e1 x e2, written out (np.cross costs ~50 us of overhead per call)
+    normal[:, 0] = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
+    normal[:, 1] = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
+    normal[:, 2] = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
     offset = np.einsum("ij,ij->i", normal, p0)  # plane: normal . p = offset
     uu, vv = u[f], v[f]  # (M, 3) projected corners
     # Pixel-centre bounding boxes, clipped to the image; triangles seen edge-on (no area) never hit.

@@ -164,6 +164,7 @@ class Simulator:
             self._peg_qadr = int(m.jnt_qposadr[m.joint("peg").id])
             self._slot_body = m.body("slot").id
         self._vertices = self._object_vertices()
+        self._tool_prop = self._pair_table(_TOOL_SIDE, _PROPS)
         self._visual_geom = m.geom("object_visual").id
         self._visual_mesh = int(m.geom_dataid[self._visual_geom])
         # The visual mesh as MuJoCo compiled it (geom frame), for the depth camera.
@@ -203,6 +204,12 @@ class Simulator:
         if self._recorder is not None:
             self._recorder(self)
 
+    def _pair_table(self, first: NDArray[np.bool_], second: NDArray[np.bool_]) -> NDArray[np.bool_]:
+        """(ngeom, ngeom) table: True for geom pairs with one geom's category in ``first`` and the
+        other's in ``second`` (either way round), to test a step's contacts in one lookup."""
+        a, b = first[self._cat], second[self._cat]
+        return (a[:, None] & b[None, :]) | (b[:, None] & a[None, :])
+
     def _contacts(self) -> NDArray[np.int64]:
         """(ncon, 2) geom categories of the current contacts, each row sorted."""
         n = self.data.ncon
@@ -213,18 +220,17 @@ class Simulator:
 
     def _check_stable(self) -> None:
         d, e = self.data, self.config.episode
-        # Fast path (this runs every check_every steps): a NaN makes the max NaN, an inf the sum inf.
-        speed = float(np.max(np.abs(d.qvel)))
-        if not (speed <= e.max_speed and math.isfinite(float(np.sum(d.qpos)))):
-            if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
+        # Fast path (this runs every check_every steps): NaN fails every comparison, inf the finite sum.
+        qvel = d.qvel
+        if not (qvel.max() <= e.max_speed and -qvel.min() <= e.max_speed and math.isfinite(d.qpos.sum())):
+            if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(qvel))):
                 raise _Unstable("NaN in the state")
-            if speed > e.max_speed:
-                raise _Unstable(f"speed {speed:.1f}")
+            raise _Unstable(f"speed {float(np.max(np.abs(qvel))):.1f}")
         n = d.ncon
         if n:
             contact = d.contact
             dist = contact.dist[:n]
-            if float(np.min(dist)) < -e.max_penetration:
+            if dist.min() < -e.max_penetration:
                 # Things falling off the table hit the ground fast; only other contacts count as deep.
                 cats = self._cat[contact.geom[:n]]
                 deep = (dist < -e.max_penetration) & np.all(cats != GROUND, axis=1)
@@ -815,9 +821,8 @@ class Simulator:
             n = self.data.ncon
             if hit_before[0] or not n:
                 return
-            cats = self._cat[self.data.contact.geom[:n]]
-            a, b = cats[:, 0], cats[:, 1]
-            if np.any((_TOOL_SIDE[a] & _PROPS[b]) | (_TOOL_SIDE[b] & _PROPS[a])):
+            geoms = self.data.contact.geom[:n]
+            if self._tool_prop[geoms[:, 0], geoms[:, 1]].any():
                 hit_before[0] = True
 
         self._move(np.array([start[0], start[1], high]), start_yaw, g.linear_speed, g.yaw_speed, watch_props)
@@ -879,7 +884,8 @@ class Simulator:
         # table, unsupported: it will reach the ground, so it counts as there (its fall is not simulated).
         fallen_z = -(math.hypot(c_sw.can_radius, 0.5 * c_sw.can_height) + c_sw.fallen_margin)
 
-        is_target = np.isin(np.arange(len(_TOOL_SIDE)), targets)
+        touch = self._pair_table(_TOOL_SIDE, np.isin(np.arange(len(_TOOL_SIDE)), targets))
+        is_ground = self._cat == GROUND
         qpos = d.qpos
 
         def watch() -> None:
@@ -891,13 +897,12 @@ class Simulator:
             if not n:
                 return
             geoms = d.contact.geom[:n]
-            cats = self._cat[geoms]
-            a, b = cats[:, 0], cats[:, 1]
-            if not touched[0] and np.any((_TOOL_SIDE[a] & is_target[b]) | (_TOOL_SIDE[b] & is_target[a])):
+            g0, g1 = geoms[:, 0], geoms[:, 1]
+            if not touched[0] and touch[g0, g1].any():
                 touched[0] = True
             if n_cans and not all(on_ground):
-                ground = (a == GROUND) | (b == GROUND)
-                if np.any(ground):
+                ground = is_ground[g0] | is_ground[g1]
+                if ground.any():
                     hit = geoms[ground]
                     for i in range(n_cans):
                         if not on_ground[i] and np.any(hit == self._can_geoms[i]):
