@@ -7,7 +7,8 @@
 samples antipodal grasps on the depth image, keeps NMS modes and runs a few of them (both random
 baseline actions, +-5 cm / +-pi/20, and uniform actions over the task's box), saving the grasps, the
 actions, the settled object pose and the labels (S_G, S_T, validity, failure reason, in-hand pose).
-``compare`` re-runs exactly the same grasps and actions with the current code and prints how many
+``compare`` re-runs exactly the same grasps and actions with the current code (and, with ``--config``,
+another simulator configuration) and prints how many
 labels agree, per task, and how far the settled object and the in-hand pose moved. Use it to check that
 a speed-up of the simulator leaves what the tasks measure unchanged.
 """
@@ -44,8 +45,7 @@ def _trial(sim: Simulator, grasp: list[float], action: list[float], seed: int) -
     }
 
 
-def record(out: Path, n_objects: int, n_grasps: int, tmp: str) -> None:
-    cfg = SimConfig()
+def record(out: Path, n_objects: int, n_grasps: int, tmp: str, cfg: SimConfig) -> None:
     records = generate_set("primitive", "train", n_objects, Path(tmp) / "prim")
     episodes: list[dict[str, Any]] = []
     for task in TASKS:
@@ -81,9 +81,8 @@ def record(out: Path, n_objects: int, n_grasps: int, tmp: str) -> None:
     print(f"recorded {len(episodes)} episodes to {out}")
 
 
-def compare(path: Path, tmp: str) -> None:
+def compare(path: Path, tmp: str, cfg: SimConfig) -> None:
     saved = json.loads(path.read_text())
-    cfg = SimConfig()
     records = generate_set("primitive", "train", saved["objects"], Path(tmp) / "prim")
     sims: dict[tuple[str, int], Simulator] = {}
     stats: dict[str, dict[str, Any]] = {
@@ -140,13 +139,17 @@ def main() -> None:
     parser.add_argument("path", type=Path, help="JSON file of the recorded episodes")
     parser.add_argument("--objects", type=int, default=16, help="PG-Primitive objects (record)")
     parser.add_argument("--grasps", type=int, default=3, help="NMS grasps per object (2 actions each)")
+    parser.add_argument(
+        "--config", type=Path, help="SimConfig JSON to record or replay under (e.g. another time step)"
+    )
     args = parser.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
+    cfg = SimConfig.load(args.config) if args.config else SimConfig()
     with tempfile.TemporaryDirectory() as tmp:
         if args.mode == "record":
-            record(args.path, args.objects, args.grasps, tmp)
+            record(args.path, args.objects, args.grasps, tmp, cfg)
         else:
-            compare(args.path, tmp)
+            compare(args.path, tmp, cfg)
 
 
 if __name__ == "__main__":

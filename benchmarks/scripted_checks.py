@@ -34,7 +34,7 @@ def main() -> None:
     checks = [
         ("hammering", "far_end", cfg, True, ">= 90%"),
         ("hammering", "head", cfg, True, "fails in most"),
-        ("hammering", "head", cfg, False, "diagnostic: momentum only"),
+        ("hammering", "head", cfg, False, "diagnostic: the yaw it needs, outside the box"),
         ("hammering", "far_end", slow, True, "slow wrist 1.5 rad/s: push must fail"),
         ("sweeping", "short_end", cfg, True, ">= 90%"),
         ("sweeping", "long_middle", cfg, True, "far less often"),

@@ -167,3 +167,27 @@ def test_peg_friction_does_not_creep_below_its_threshold(hammer_sim):
     assert abs(moved[0.9]) < 0.0005  # under half a millimetre in 2 s at 90 % of the friction
     assert moved[1.2] > 0.04  # above it the peg slides home
     hammer_sim.reset(0)
+
+
+@pytest.mark.parametrize("timestep", [0.002, 0.001])
+def test_fingers_close_smoothly_at_the_speed_limit_whatever_the_time_step(tools, timestep):
+    # A stiff servo with its damping in the actuator lost that damping whenever the force limit was hit
+    # and the 30 g finger chattered between +-60 N every step, so how a grasp closed depended on dt.
+    cfg = SimConfig()
+    cfg = cfg.replace(physics=cfg.physics.replace(timestep=timestep))
+    sim = Simulator(cfg, "grasping", tools["t_hammer"])
+    sim.reset(0)
+    sim._set_gripper(np.array([0.0, 0.3, 0.3]), 0.0, cfg.gripper.max_opening)  # in the air, open
+    d = sim.data
+    d.ctrl[4] = d.ctrl[5] = -0.02
+    dof = sim._dadr["finger_l"]
+    speeds = []
+    for _ in range(round(0.08 / timestep)):
+        mujoco.mj_step(sim.model, d)
+        speeds.append(d.qvel[dof])
+    speeds = np.asarray(speeds)
+    limit = cfg.gripper.finger_force / cfg.gripper.finger_damping
+    assert np.all(speeds <= 1e-9), "the finger never moves back while closing"
+    assert np.all(np.abs(np.diff(np.sign(speeds[speeds < -1e-3]))) == 0)
+    assert np.abs(speeds).max() == pytest.approx(limit, rel=0.05)
+    assert d.qpos[sim._qadr["finger_l"]] < 0.5 * cfg.gripper.max_opening - 0.02  # it got somewhere

@@ -1,4 +1,7 @@
-"""Pure-numpy geometry: poses, 4-DoF grasps and the pinhole camera model. Imports nothing from tognet."""
+"""Pure-numpy geometry: poses, 4-DoF grasps, the pinhole camera model and mesh depth (``raster``).
+
+Imports nothing from tognet.
+"""
 
 from tognet.geometry.camera import Camera, CameraIntrinsics, DepthImageError, validate_depth
 from tognet.geometry.grasp import Grasp, grasps_to_array, wrap_angle

@@ -79,7 +79,8 @@ class SweepingConfig(Config):
         0.1,
         "Simulation shortcut, not part of the task: until the tool or the hand comes this close (m, in x "
         "and y, around a sphere holding the whole tool) the cans standing still are left out of the "
-        "physics (their table contacts cost a third of every step) and come back as they stood.",
+        "physics (the world is stepped without them: their contacts and degrees of freedom cost a good "
+        "part of every step) and come back as they stood.",
     )
     nominal_offset: tuple[float, float, float] = doc(
         (0.0, -0.15, -0.03), "Gripper start position minus the reference point at a = 0 (m)."
