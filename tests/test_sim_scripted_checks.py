@@ -22,10 +22,10 @@ def test_hammering_needs_momentum_not_a_slow_push():
     slow = cfg.replace(gripper=cfg.gripper.replace(yaw_speed=1.5))
     result = run_check("hammering", "far_end", range(100, 104), slow)
     assert result.grasp_successes >= 3 and result.task_successes == 0, result.line()
-    # The head grasp with the yaw it would need (outside the action box) drives the peg in about half the
-    # seeds since the fingers grip without chattering (24/50; 0/50 before); slowed to a push it never does.
-    head = run_check("hammering", "head", range(100, 104), slow, clip=False)
-    assert head.grasp_successes >= 3 and head.task_successes == 0, head.line()
+    # Momentum only: the head grasp with the yaw it would need (outside the action box) still falls short.
+    head = run_check("hammering", "head", range(100, 104), clip=False)
+    assert head.task_successes == 0, head.line()
+    assert all(d["peg_out"] > 0.005 for d in head.details if "peg_out" in d)
     # Less lever, less momentum: the same grasp 13 cm along the handle falls short every time.
     middle = run_check("hammering", hammer_handle_grasp(0.13), range(100, 104))
     assert middle.task_successes == 0 and middle.grasp_successes >= 3, middle.line()

@@ -99,14 +99,16 @@ class GripperConfig(Config):
     max_opening: float = doc(0.08, "Maximum distance between the finger pads (m).")
     finger_force: float = doc(60.0, "Force limit of each finger's closing actuator (N).")
     finger_kp: float = doc(2000.0, "Finger position-servo stiffness (N/m); saturates at the force limit.")
-    finger_damping: float = doc(
-        200.0,
-        "Damping of each finger's slide joint (N s/m): with the force limit it caps the closing speed at "
-        "finger_force / finger_damping (0.3 m/s). Joint damping, integrated implicitly at any force: as the "
-        "position servo's kv it dropped out of the implicit step whenever the force limit was reached, "
-        "and the 0.03 kg finger then chattered between +-finger_force every step (kv dt / m = 13 at 2 ms), "
-        "so whether and how firmly a grasp closed depended on the time step (measured: half the grasps "
-        "that lifted at 2 ms did not at 1 ms).",
+    finger_kv: float = doc(
+        200.0, "Finger servo damping (N s/m): with the force limit it caps the closing speed at 0.3 m/s."
+    )
+    finger_armature: float = doc(
+        0.4,
+        "Reflected inertia of each finger's drive (kg; a screw-driven jaw's motor reflects far more). It "
+        "keeps the servo's damping stable when the force limit is reached: MuJoCo then leaves the damping "
+        "out of the implicit step, and a bare 30 g finger (kv dt / m = 13 at 2 ms) chattered between "
+        "+-finger_force every step, so grasps closed differently at each time step (measured: half the "
+        "grasps that lifted at dt 2 ms did not at 1 ms). With it kv dt / m < 1.",
     )
     pad_friction: float = doc(1.0, "Sliding friction of the finger pads.")
     pad_torsional_friction: float = doc(0.02, "Torsional friction of the pads (m), condim 4.")

@@ -92,7 +92,7 @@ def _gripper_xml(config: SimConfig) -> tuple[list[str], list[str]]:
             f'        <body name="finger_{side}" gravcomp="1">',
             f'          <joint name="finger_{side}" type="slide" axis="{sign:g} 0 0" '
             f'range="0 {half_open:.4f}" '
-            f'damping="{g.finger_damping:g}"/>',
+            f'damping="2" armature="{g.finger_armature:g}"/>',
             '          <inertial pos="0 0 0.02" mass="0.03" diaginertia="1e-5 1e-5 1e-5"/>',
             f'          <geom name="finger_{side}" type="box" '
             f'size="{0.5 * t:.4f} {0.5 * pw:.4f} {link_h:.4f}" '
@@ -113,6 +113,7 @@ def _gripper_xml(config: SimConfig) -> tuple[list[str], list[str]]:
     for side in ("l", "r"):
         act.append(
             f'<position name="act_finger_{side}" joint="finger_{side}" kp="{g.finger_kp:g}" '
+            f'kv="{g.finger_kv:g}" '
             f'ctrlrange="-0.02 {half_open:.4f}" forcerange="{-g.finger_force:g} {g.finger_force:g}"/>'
         )
     return body, act
