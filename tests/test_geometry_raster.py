@@ -37,6 +37,13 @@ def camera(position=(0.02, -0.01, 0.5), tilt=(0.05, -0.04, 0.3)) -> Camera:
     return Camera(intr, make_pose(rot_z(tilt[2]) @ rot_y(tilt[1]) @ rot_x(tilt[0]) @ down, position))
 
 
+def cast(cam: Camera, vertices: np.ndarray, faces: np.ndarray, depth: np.ndarray) -> bool:
+    """mesh_depth with the camera's pose and intrinsics."""
+    k = cam.intrinsics
+    intr = (k.fx, k.fy, k.cx, k.cy, k.width, k.height)
+    return mesh_depth(cam.pose[:3, :3], cam.position, intr, vertices, np.asarray(faces), depth)
+
+
 @pytest.mark.parametrize(
     "mesh",
     [
@@ -54,14 +61,7 @@ def test_mesh_depth_equals_brute_force_ray_casting(mesh):
         verts = mesh.vertices @ rot.T + np.array([rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1), 0.05])
         k = cam.intrinsics
         got = np.full(k.width * k.height, np.inf)
-        assert mesh_depth(
-            cam.pose[:3, :3],
-            cam.position,
-            (k.fx, k.fy, k.cx, k.cy, k.width, k.height),
-            verts,
-            np.asarray(mesh.faces),
-            got,
-        )
+        assert cast(cam, verts, np.asarray(mesh.faces), got)
         want = brute_force(cam, verts, np.asarray(mesh.faces))
         got = got.reshape(want.shape)
         assert np.isfinite(want).sum() > 100  # the mesh is in view
@@ -76,14 +76,7 @@ def test_mesh_partly_outside_the_image_and_depth_only_lowered():
     prior = np.full(k.width * k.height, 0.47)  # something nearer than the box's top everywhere but a strip
     prior[: k.width * 10] = np.inf
     got = prior.copy()
-    assert mesh_depth(
-        cam.pose[:3, :3],
-        cam.position,
-        (k.fx, k.fy, k.cx, k.cy, k.width, k.height),
-        mesh.vertices,
-        np.asarray(mesh.faces),
-        got,
-    )
+    assert cast(cam, mesh.vertices, np.asarray(mesh.faces), got)
     want = np.minimum(prior, brute_force(cam, mesh.vertices, np.asarray(mesh.faces)).ravel())
     np.testing.assert_allclose(got, want, rtol=1e-12)
     assert np.all(got <= prior)
@@ -94,12 +87,5 @@ def test_vertex_behind_the_camera_is_refused_without_touching_the_depth():
     mesh = trimesh.creation.box(extents=(0.1, 0.1, 0.1))  # reaches 5 cm up: above the camera
     k = cam.intrinsics
     depth = np.full(k.width * k.height, np.inf)
-    assert not mesh_depth(
-        cam.pose[:3, :3],
-        cam.position,
-        (k.fx, k.fy, k.cx, k.cy, k.width, k.height),
-        mesh.vertices,
-        np.asarray(mesh.faces),
-        depth,
-    )
+    assert not cast(cam, mesh.vertices, np.asarray(mesh.faces), depth)
     assert np.all(np.isinf(depth))
