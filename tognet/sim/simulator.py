@@ -31,7 +31,6 @@ from typing import Any
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import ConvexHull, QhullError
 
 from tognet.errors import TognetError
 from tognet.geometry import Camera, CameraIntrinsics, Grasp
@@ -51,13 +50,38 @@ _HAND = np.isin(np.arange(10), (FINGER_L, FINGER_R, GRIPPER))
 _PROPS = np.isin(np.arange(10), (CAN, PEG, SLOT))
 
 
+def _hull_2d(points: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Counter-clockwise convex hull of a few 2-D points (monotone chain); ValueError if it is degenerate.
+    (scipy's Qhull costs ~1 ms a call here, for 4 or 8 points.)"""
+    pts = sorted({(float(x), float(y)) for x, y in points})
+
+    def turn(o: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    chain: list[tuple[float, float]] = []
+    for sweep in (pts, pts[::-1]):  # lower hull, then upper hull
+        start = len(chain)
+        for q in sweep:
+            while len(chain) >= start + 2 and turn(chain[-2], chain[-1], q) <= 0:
+                chain.pop()
+            chain.append(q)
+        chain.pop()  # each half's last point starts the other half
+    if len(chain) < 3:
+        raise ValueError("degenerate outline")
+    return np.asarray(chain)
+
+
 def _rows_in_hull(
     points: NDArray[np.float64], grow: float, height: int
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Per image row v = 0 .. height - 1, the interval [lo, hi] of u inside the convex hull of the 2-D
     ``points`` grown by ``grow`` px (shrunk if negative); hi < lo on rows it does not reach."""
-    hull = ConvexHull(points)
-    nx, ny, off = (col[None, :] for col in hull.equations.T)  # unit normals: n . p + off <= 0 inside
+    hull = _hull_2d(points)
+    edge = np.roll(hull, -1, axis=0) - hull
+    length = np.hypot(edge[:, 0], edge[:, 1])
+    nx, ny = edge[:, 1] / length, -edge[:, 0] / length  # outward unit normals (counter-clockwise hull)
+    off = -(nx * hull[:, 0] + ny * hull[:, 1])  # n . p + off <= 0 inside
+    nx, ny, off = nx[None, :], ny[None, :], off[None, :]
     rows = np.arange(height, dtype=np.float64)[:, None]
     rhs = grow - off - ny * rows  # nx * u <= rhs
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -400,7 +424,7 @@ class Simulator:
         try:
             top = _rows_in_hull(uv[:4], -1.0, k.height)
             slab = _rows_in_hull(uv, 1.0, k.height)
-        except QhullError:
+        except ValueError:
             return None
         return (*top, *slab)
 
