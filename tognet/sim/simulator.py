@@ -414,7 +414,8 @@ class Simulator:
         """Per image row, the columns whose rays surely end on the table top, [top_lo, top_hi] (its
         projected outline shrunk by 1 px), and the interval [slab_lo, slab_hi] outside which they surely
         miss the table slab (its projected outline grown by 1 px) and end on the ground. Pixels between
-        the two get the exact test. None when the outlines cannot be used (a corner behind the camera)."""
+        the two get the exact test. None when the outlines cannot be used (a corner behind the camera,
+        the camera at or below the table top, a degenerate outline)."""
         w, k = self.config.world, camera.intrinsics
         lx, ly, thick = 0.5 * w.table_size[0], 0.5 * w.table_size[1], 0.04
         corners = np.array([[sx * lx, sy * ly, z] for z in (0.0, -thick) for sx in (-1, 1) for sy in (-1, 1)])
@@ -464,13 +465,14 @@ class Simulator:
     def render_depth(self, camera: Camera, rng: np.random.Generator | None = None) -> NDArray[np.float32]:
         """Depth image (camera-frame z, metres, NaN holes) by ray casting (no OpenGL).
 
-        Every pixel's ray ends where a ray caster would end it: on the table slab, the ground plane or
-        the object's visual mesh, whichever is nearest. The table and the ground are intersected
-        analytically (pixels well inside the table top's outline in one vectorised division, the rest
-        with the exact slab test); the object's mesh by exact ray-triangle intersection for the pixels
-        its triangles cover (:func:`tognet.geometry.raster.mesh_depth`), or by MuJoCo's ray caster
-        (``mj_multiRay``) if the mesh reaches behind the camera. Task props and the gripper (parked out
-        of view) are not seen.
+        Every pixel's ray ends where MuJoCo's ray caster would end it for a camera above the table:
+        on the table slab's top or sides, the ground plane or the object's visual mesh, whichever is
+        nearest (the slab's underside is not modelled; the ground is an unbounded plane). The table
+        and the ground are intersected analytically: pixels well inside the table top's outline, or
+        well outside the slab's, in one vectorised division, the rest with the exact slab test. The
+        object's mesh: exact ray-triangle intersection for the pixels its triangles cover
+        (:func:`tognet.geometry.raster.mesh_depth`), or MuJoCo's ray caster (``mj_multiRay``) if the
+        mesh reaches behind the camera. Task props and the gripper (parked out of view) are not seen.
         """
         t0 = time.perf_counter()
         c = self.config.camera
