@@ -1,6 +1,6 @@
 """Full simulated episodes per second on one core, per task, and where the time goes.
 
-    .venv/bin/python benchmarks/bench_episodes.py [--episodes 60] [--repeats 3]
+    .venv/bin/python benchmarks/bench_episodes.py [--episodes 60] [--repeats 3] [--config SIM.json]
 
 An episode = reset (drop and settle the object, disturb the camera, ray-cast the depth image, place the
 props) + execute (approach, close, lift, hold, transport, the task's primitive, labels). Tools: the
@@ -21,6 +21,7 @@ import argparse
 import os
 import tempfile
 import time
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -126,9 +127,10 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=60, help="episodes per task and repeat")
     parser.add_argument("--repeats", type=int, default=3, help="runs of the same seeded episodes")
     parser.add_argument("--tasks", nargs="+", default=["hammering", "sweeping"], help="tasks to time")
+    parser.add_argument("--config", type=Path, help="SimConfig JSON to time instead of the defaults")
     args = parser.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
-    cfg = SimConfig()
+    cfg = SimConfig.load(args.config) if args.config else SimConfig()
     with tempfile.TemporaryDirectory() as tmp:
         tools = make_test_tools(tmp + "/tools")
         prims = generate_set("primitive", "train", 4, tmp + "/prim")

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -28,8 +29,9 @@ def main() -> None:
         help="also grasp positions along the handle, "
         "and the long-edge sweep turned to the action box's yaw limits (half the seeds)",
     )
+    parser.add_argument("--config", type=Path, help="SimConfig JSON to check instead of the defaults")
     args = parser.parse_args()
-    cfg = SimConfig()
+    cfg = SimConfig.load(args.config) if args.config else SimConfig()
     slow = cfg.replace(gripper=cfg.gripper.replace(yaw_speed=1.5))
     checks = [
         ("hammering", "far_end", cfg, True, ">= 90%"),
