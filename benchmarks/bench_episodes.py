@@ -26,6 +26,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from tognet.config import ConfigError
 from tognet.objects.generate import generate_set
 from tognet.sim import SimConfig, Simulator
 from tognet.sim.checks import HAMMER_GRASPS, SWEEP_GRASPS, hammer_action, sweep_action
@@ -122,6 +123,14 @@ def bench(task: str, records: list, episodes: int, repeats: int, cfg: SimConfig)
     }
 
 
+def _load_config(parser: argparse.ArgumentParser, path: Path | None) -> SimConfig:
+    """The --config file's SimConfig (the defaults without one); a bad file ends with its message."""
+    try:
+        return SimConfig.load(path) if path else SimConfig()
+    except ConfigError as exc:
+        parser.error(str(exc))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--episodes", type=int, default=60, help="episodes per task and repeat")
@@ -130,7 +139,7 @@ def main() -> None:
     parser.add_argument("--config", type=Path, help="SimConfig JSON to time instead of the defaults")
     args = parser.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
-    cfg = SimConfig.load(args.config) if args.config else SimConfig()
+    cfg = _load_config(parser, args.config)
     with tempfile.TemporaryDirectory() as tmp:
         tools = make_test_tools(tmp + "/tools")
         prims = generate_set("primitive", "train", 4, tmp + "/prim")

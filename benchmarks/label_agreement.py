@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from tognet.config import ConfigError
 from tognet.geometry import Grasp
 from tognet.grasping import AntipodalConfig, NMSConfig, nms, prepare_depth, sample_antipodal
 from tognet.objects.generate import generate_set
@@ -133,6 +134,14 @@ def compare(path: Path, tmp: str, cfg: SimConfig) -> None:
     print(f"({time.perf_counter() - t0:.0f} s)")
 
 
+def _load_config(parser: argparse.ArgumentParser, path: Path | None) -> SimConfig:
+    """The --config file's SimConfig (the defaults without one); a bad file ends with its message."""
+    try:
+        return SimConfig.load(path) if path else SimConfig()
+    except ConfigError as exc:
+        parser.error(str(exc))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("mode", choices=("record", "compare"), help="record labels, or compare with a record")
@@ -144,7 +153,7 @@ def main() -> None:
     )
     args = parser.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
-    cfg = SimConfig.load(args.config) if args.config else SimConfig()
+    cfg = _load_config(parser, args.config)
     with tempfile.TemporaryDirectory() as tmp:
         if args.mode == "record":
             record(args.path, args.objects, args.grasps, tmp, cfg)

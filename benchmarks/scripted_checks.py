@@ -16,8 +16,17 @@ from pathlib import Path
 
 import numpy as np
 
+from tognet.config import ConfigError
 from tognet.sim import SimConfig
 from tognet.sim.checks import hammer_handle_grasp, run_check
+
+
+def _load_config(parser: argparse.ArgumentParser, path: Path | None) -> SimConfig:
+    """The --config file's SimConfig (the defaults without one); a bad file ends with its message."""
+    try:
+        return SimConfig.load(path) if path else SimConfig()
+    except ConfigError as exc:
+        parser.error(str(exc))
 
 
 def main() -> None:
@@ -31,7 +40,7 @@ def main() -> None:
     )
     parser.add_argument("--config", type=Path, help="SimConfig JSON to check instead of the defaults")
     args = parser.parse_args()
-    cfg = SimConfig.load(args.config) if args.config else SimConfig()
+    cfg = _load_config(parser, args.config)
     slow = cfg.replace(gripper=cfg.gripper.replace(yaw_speed=1.5))
     checks = [
         ("hammering", "far_end", cfg, True, ">= 90%"),

@@ -190,9 +190,8 @@ class Simulator:
         self._vertices = self._object_vertices()
         self._tool_prop = self._pair_table(_TOOL_SIDE, _PROPS)
         self._visual_geom = m.geom("object_visual").id
-        self._visual_mesh = int(m.geom_dataid[self._visual_geom])
         # The visual mesh as MuJoCo compiled it (geom frame), for the depth camera.
-        mid = self._visual_mesh
+        mid = int(m.geom_dataid[self._visual_geom])
         va, vn = int(m.mesh_vertadr[mid]), int(m.mesh_vertnum[mid])
         fa, fn = int(m.mesh_faceadr[mid]), int(m.mesh_facenum[mid])
         self._visual_local = m.mesh_vert[va : va + vn].astype(np.float64)
@@ -511,8 +510,13 @@ class Simulator:
             exact |= cols > top_hi[:, None]
             exact &= ~off_slab
             todo = np.flatnonzero(exact.ravel())
-        vv, uu = np.divmod(todo, k.width)
-        dirs = np.stack([ra[i][uu] + rb[i][vv] + r[i, 2] for i in range(3)], axis=1)
+
+        def directions(pixels: NDArray[np.int64]) -> NDArray[np.float64]:
+            """(n, 3) world ray directions of flat pixel indices (the same sums as the dz image)."""
+            v, u = np.divmod(pixels, k.width)
+            return np.stack([ra[i][u] + rb[i][v] + r[i, 2] for i in range(3)], axis=1)
+
+        dirs = directions(todo)
         t[todo] = self._static_rays(origin, dirs[:, 0], dirs[:, 1], dirs[:, 2])
         # The object's visual mesh.
         d, gid = self.data, self._visual_geom
@@ -520,9 +524,8 @@ class Simulator:
         intr = (k.fx, k.fy, k.cx, k.cy, k.width, k.height)
         if not mesh_depth(r, origin, intr, world, self._visual_faces, t):
             # A vertex behind the camera: MuJoCo's ray caster on every pixel (slow, never seen in use).
-            vv, uu = np.divmod(np.arange(n_pix), k.width)
-            every = np.stack([ra[i][uu] + rb[i][vv] + r[i, 2] for i in range(3)], axis=1)
-            self._cast_object_rays(origin, every, np.arange(n_pix), t)
+            every = np.arange(n_pix)
+            self._cast_object_rays(origin, directions(every), every, t)
         depth = t.astype(np.float32)
         depth[~(depth <= c.max_range)] = np.nan  # also inf (no hit) and NaN
         if rng is not None and c.depth_noise > 0:
