@@ -187,7 +187,9 @@ class Simulator:
             self._cat[m.geom("slot").id] = SLOT
             self._peg_qadr = int(m.jnt_qposadr[m.joint("peg").id])
             self._slot_body = m.body("slot").id
-        self._vertices = self._object_vertices()
+        self._vertices = self._object_vertices()  # collision vertices, object frame
+        self._com = np.asarray(obj.com, dtype=np.float64)  # the body's origin in the object frame
+        self._body_vertices = self._vertices - self._com
         self._tool_prop = self._pair_table(_TOOL_SIDE, _PROPS)
         self._visual_geom = m.geom("object_visual").id
         # The visual mesh as MuJoCo compiled it (geom frame), for the depth camera.
@@ -196,8 +198,9 @@ class Simulator:
         fa, fn = int(m.mesh_faceadr[mid]), int(m.mesh_facenum[mid])
         self._visual_local = m.mesh_vert[va : va + vn].astype(np.float64)
         self._visual_faces = m.mesh_face[fa : fa + fn].astype(np.int64)
-        # Radius (m) around the object's body origin that holds all of its collision geometry.
-        self._object_reach = float(np.max(np.linalg.norm(self._vertices, axis=1)))
+        # Radius (m) around the object's body origin (its centre of mass) that holds all of its collision
+        # geometry.
+        self._object_reach = float(np.max(np.linalg.norm(self._body_vertices, axis=1)))
         # Cans on hold while the tool is far from them: {can: its (qpos, qvel, solver warm start) then}.
         self._held_cans: dict[int, tuple[NDArray[np.float64], ...]] = {}
         self._state_spec = mujoco.mjtState.mjSTATE_INTEGRATION
@@ -632,7 +635,7 @@ class Simulator:
             if math.hypot(ox - cx, oy - cy) < obj_reach:
                 if pts is None:  # near the bounding sphere: look at the collision vertices themselves
                     rot = d.xmat[self._obj_body].reshape(3, 3)
-                    pts = self._vertices @ rot[:2].T + d.xpos[self._obj_body, :2]
+                    pts = self._body_vertices @ rot[:2].T + d.xpos[self._obj_body, :2]
                 if np.min((pts[:, 0] - cx) ** 2 + (pts[:, 1] - cy) ** 2) < margin * margin:
                     return True
         return False
@@ -683,7 +686,7 @@ class Simulator:
             offset = rc @ com
             z = -float(np.min(self._vertices[:, 2])) + w.drop_height
             qa = self._obj_qadr
-            d.qpos[qa : qa + 3] = (xy[0] - offset[0], xy[1] - offset[1], z)
+            d.qpos[qa : qa + 3] = (xy[0], xy[1], z + offset[2])  # the body's origin is the centre of mass
             d.qpos[qa + 3 : qa + 7] = (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
             self._place_props(layout)
             mujoco.mj_forward(m, d)
@@ -747,9 +750,11 @@ class Simulator:
 
     # --- trial --------------------------------------------------------------------------------------
     def object_pose(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """The object's body position and rotation matrix (world)."""
+        """The pose of the object's own frame (its meshes' frame) in the world: position, rotation matrix.
+        (The simulated body's origin is the centre of mass, ``obj.com`` in this frame.)"""
         b = self._obj_body
-        return self.data.xpos[b].copy(), self.data.xmat[b].reshape(3, 3).copy()
+        rot = self.data.xmat[b].reshape(3, 3).copy()
+        return self.data.xpos[b] - rot @ self._com, rot
 
     def default_grasp(self) -> Grasp:
         """A sensible grasp on the settled object: at its centre of mass, jaw across its narrow side."""

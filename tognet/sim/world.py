@@ -35,19 +35,25 @@ def _object_xml(config: SimConfig, obj: ObjectRecord) -> tuple[list[str], list[s
     ]
     assets.append(f'<mesh name="object_visual" file={quoteattr(str(obj.path(obj.visual_mesh)))}/>')
     friction = f"{obj.friction:.6g} {w.object_torsional_friction:g} {w.object_rolling_friction:g}"
+    # The body's frame is the object's frame moved to its centre of mass (the meshes are shifted back),
+    # so the free joint moves the centre of mass: no velocity-product (centripetal) coupling between its
+    # translation and rotation for the integrator to lag behind on (Simulator.object_pose() gives the
+    # object's own frame).
+    shift = f'pos="{_v(-np.asarray(obj.com, dtype=np.float64))}"'
     body = [
         '<body name="object" pos="0 0 0.5">',
         '  <freejoint name="object"/>',
-        f'  <inertial pos="{_v(obj.com)}" mass="{obj.mass:.9g}" fullinertia="{_v(full)}"/>',
+        f'  <inertial pos="0 0 0" mass="{obj.mass:.9g}" fullinertia="{_v(full)}"/>',
     ]
     body += [
-        f'  <geom name="piece_{i:02d}" type="mesh" mesh="piece_{i:02d}" friction="{friction}" condim="3" '
+        f'  <geom name="piece_{i:02d}" type="mesh" mesh="piece_{i:02d}" {shift} friction="{friction}" '
+        'condim="3" '
         f'solref="{w.table_solref[0]:g} {w.table_solref[1]:g}" '
         f'priority="1" group="{GROUP_OBJECT_COLLISION}" rgba="0.8 0.5 0.2 1"/>'
         for i in range(len(obj.collision_paths))
     ]
     body.append(
-        f'  <geom name="object_visual" type="mesh" mesh="object_visual" contype="0" conaffinity="0" '
+        f'  <geom name="object_visual" type="mesh" mesh="object_visual" {shift} contype="0" conaffinity="0" '
         f'group="{GROUP_OBJECT_VISUAL}" rgba="0.85 0.55 0.25 1"/>'
     )
     body.append("</body>")
