@@ -680,13 +680,10 @@ class Simulator:
             self._set_gripper(np.asarray(PARK), 0.0, self.config.gripper.max_opening)
             yaw = rng.uniform(0, 2 * np.pi)
             xy = (rng.uniform(*w.drop_x), rng.uniform(*w.drop_y))
-            # Place the object's centre of mass over the drop point, its lowest point drop_height above.
-            com = np.asarray(self.obj.com)
-            rc = rot_z(yaw)
-            offset = rc @ com
-            z = -float(np.min(self._vertices[:, 2])) + w.drop_height
+            # The body's origin (the centre of mass) over the drop point, the lowest point drop_height up.
+            z = -float(np.min(self._vertices[:, 2])) + w.drop_height  # of the object's own frame
             qa = self._obj_qadr
-            d.qpos[qa : qa + 3] = (xy[0], xy[1], z + offset[2])  # the body's origin is the centre of mass
+            d.qpos[qa : qa + 3] = (xy[0], xy[1], z + self._com[2])
             d.qpos[qa + 3 : qa + 7] = (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
             self._place_props(layout)
             mujoco.mj_forward(m, d)
