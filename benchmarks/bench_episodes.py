@@ -81,6 +81,12 @@ def _plan(sim: Simulator, i: int) -> tuple:
     return sim.default_grasp(), sim.task.random_action(np.random.default_rng(i))
 
 
+def episode_records(task: str, tools: dict, prims: list) -> list:
+    """The benchmark's object mix for ``task``: its hand-made tool twice, then the PG-Primitive objects."""
+    tool = tools[{"hammering": "t_hammer", "sweeping": "l_tool"}[task]]
+    return [tool, tool, *prims]
+
+
 def bench(task: str, records: list, episodes: int, repeats: int, cfg: SimConfig) -> dict:
     sims, build = [], 0.0
     for rec in records:
@@ -144,9 +150,7 @@ def main() -> None:
         tools = make_test_tools(tmp + "/tools")
         prims = generate_set("primitive", "train", 4, tmp + "/prim")
         for task in args.tasks:
-            tool = {"hammering": "t_hammer", "sweeping": "l_tool"}[task]
-            records = [tools[tool], tools[tool], *prims]
-            r = bench(task, records, args.episodes, args.repeats, cfg)
+            r = bench(task, episode_records(task, tools, prims), args.episodes, args.repeats, cfg)
             rest = 1 - r["physics"] - r["ray"]
             runs = " ".join(f"{x:.1f}" for x in r["runs"])
             print(

@@ -27,7 +27,7 @@ from pathlib import Path
 def _worker(task: str, episodes: int, config: Path | None) -> None:
     """Build the simulators, then run ``episodes`` episodes (the part the parent counts)."""
     sys.path.insert(0, str(Path(__file__).parent))
-    from bench_episodes import _plan
+    from bench_episodes import _plan, episode_records
 
     from tognet.objects.generate import generate_set
     from tognet.sim import SimConfig, Simulator
@@ -37,8 +37,7 @@ def _worker(task: str, episodes: int, config: Path | None) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         tools = make_test_tools(tmp + "/tools")
         prims = generate_set("primitive", "train", 4, tmp + "/prim")
-        tool = {"hammering": "t_hammer", "sweeping": "l_tool"}[task]
-        sims = [Simulator(cfg, task, rec) for rec in (tools[tool], tools[tool], *prims)]
+        sims = [Simulator(cfg, task, rec) for rec in episode_records(task, tools, prims)]
         for i in range(episodes):
             sim = sims[i % len(sims)]
             sim.reset(i)
