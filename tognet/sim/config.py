@@ -172,6 +172,11 @@ class EpisodeConfig(Config):
         "gripper landed on it: the grasp fails there (the arm would stop on contact).",
     )
     max_penetration: float = doc(0.02, "A contact deeper than this (m) makes the episode invalid.")
+    prop_moved: float = doc(
+        0.001,
+        "A task prop (a can, the peg) displaced this far (m) was touched, even when no checked step saw the "
+        "contact (contacts are looked at every check_every steps; a 9 rad/s blow can fall between two).",
+    )
     max_speed: float = doc(100.0, "Any joint velocity above this (m/s or rad/s) makes the episode invalid.")
     check_every: int = doc(10, "Contacts and stability are checked every this many steps.")
 

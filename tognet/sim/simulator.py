@@ -10,11 +10,14 @@ lets it settle, disturbs the camera, takes one depth image by ray casting and sa
    its lowest point is clear of the table. ``info["in_hand"]`` is the tool's (3, 4) pose in the gripper
    frame after the hold (x = jaw axis), for oracles and diagnostics.
 2. transport: to ``start_clearance`` above the start pose (task reference + nominal offset + action, yaw
-   nominal + a_phi, with noise), then down to it. Touching a prop on the way is COLLISION_BEFORE_MOTION;
-   a tool no longer between both fingers is DROPPED.
+   nominal + a_phi, with noise), then down to it. Touching a prop on the way (a contact seen on a checked
+   step, or a prop moved by ``prop_moved``) is COLLISION_BEFORE_MOTION; a tool no longer between both
+   fingers is DROPPED.
 3. primitive: the task's motion (speed- and force-limited servos, acceleration-limited setpoints), then
    a settling time; the task's rule labels S_T. A can that reaches the ground has done its part and is
-   taken out of the scene (its fast impact is not simulated).
+   taken out of the scene (its fast impact is not simulated). The targets count as touched when a checked
+   step saw the contact or when they moved by ``prop_moved``. A failed task with the tool no longer between
+   both fingers after the motion is DROPPED (it slipped during the primitive), else the task's reason.
 
 Any NaN, joint speed above ``max_speed`` or contact deeper than ``max_penetration`` (ground contacts
 excepted) makes the trial invalid (UNSTABLE), never a success or a failure. Afterwards the world is back
@@ -38,7 +41,7 @@ from tognet.geometry.raster import mesh_depth
 from tognet.geometry.transforms import make_pose, rot_x, rot_y, rot_z
 from tognet.objects.record import ObjectRecord
 from tognet.sim.config import SimConfig
-from tognet.sim.world import GROUP_OBJECT_VISUAL, MAX_CANS, PARK, world_xml
+from tognet.sim.world import BASE_RANGE, GROUP_OBJECT_VISUAL, MAX_CANS, PARK, world_xml
 from tognet.tasks import TASK_NAMES, FailureReason, Task, TaskOutcome, get_task
 
 SIM_TASKS = (*TASK_NAMES, "grasping")
@@ -640,6 +643,26 @@ class Simulator:
                     return True
         return False
 
+    def _prop_positions(self) -> NDArray[np.float64]:
+        """(k, 3) positions of the task's props now: each can in play (where it stands, on hold or not), or
+        the peg's slide (x only); empty for other tasks. A parked can is far from anywhere it stood."""
+        d = self.data
+        if self.task_name == "sweeping":
+            rows = []
+            for i in range(len(self._scene["layout"].get("cans", []))):
+                held = self._held_cans.get(i)
+                qa = self._can_qadr[i]
+                rows.append(held[0][:3] if held is not None else d.qpos[qa : qa + 3])
+            return np.array(rows, dtype=np.float64).reshape(-1, 3)
+        if self.task_name == "hammering":
+            return np.array([[float(d.qpos[self._peg_qadr]), 0.0, 0.0]])
+        return np.zeros((0, 3))
+
+    def _prop_shift(self, before: NDArray[np.float64]) -> float:
+        """How far (m) the props moved at most since ``before`` (:meth:`_prop_positions`); 0 without props."""
+        now = self._prop_positions()
+        return float(np.max(np.linalg.norm(now - before, axis=1))) if len(now) else 0.0
+
     def _activate_cans(self, n: int) -> None:
         """The first ``n`` cans in play, the others parked."""
         for i in range(len(self._can_geoms)):
@@ -772,6 +795,7 @@ class Simulator:
             raise SimulationError("call reset(seed) before execute()")
         if self.task is not None:
             action = self.task.check_action(np.zeros(4) if action is None else action)
+        self._check_reach(grasp, action)
         mujoco.mj_setState(self.model, self.data, self._saved, self._state_spec)
         n_cans = len(self._scene["layout"].get("cans", []))
         self._activate_cans(n_cans)  # cans parked by an earlier trial are back in play
@@ -791,6 +815,23 @@ class Simulator:
         mujoco.mj_forward(self.model, self.data)
         return result
 
+    def _check_reach(self, grasp: Grasp, action: Any) -> None:
+        """ValueError when the grasp (with its approach height) or the action's start pose (with its
+        clearance) lies outside the travel of the gripper base's joints (``world.BASE_RANGE``)."""
+        g = self.config.gripper
+        margin = 0.05  # room for the execution noise and the servo's overshoot
+        points = [("grasp", np.array([grasp.x, grasp.y, grasp.z]), g.approach_height)]
+        if self.task is not None:
+            start, _ = self.task.start_pose(self._scene["reference"], action)
+            points.append(("the action's start pose", start, g.start_clearance))
+        for what, p, above in points:
+            for axis, (lo, hi), v, up in zip("xyz", BASE_RANGE, p, (0.0, 0.0, above), strict=True):
+                if not (lo + margin <= v and v + up <= hi - margin):
+                    raise ValueError(
+                        f"{what} is out of the gripper's reach: {axis} = {v:.3f} m, the base travels "
+                        f"{lo + margin:g} .. {hi - margin - up:g} m along {axis}"
+                    )
+
     def _execute(
         self, grasp: Grasp, action: Any, rng: np.random.Generator, info: dict[str, Any]
     ) -> TrialResult:
@@ -804,6 +845,7 @@ class Simulator:
             pos[2] = min_z
         self._set_gripper(pos + np.array([0, 0, g.approach_height]), yaw, g.max_opening)
         mujoco.mj_forward(self.model, self.data)
+        props_at_rest = self._prop_positions()
         self._hold_cans(len(self._scene["layout"].get("cans", [])))
         # Approach, close, lift, hold.
         try:
@@ -860,7 +902,8 @@ class Simulator:
         self._move(start, None, g.linear_speed, g.yaw_speed, watch_props)
         self._converge(monitor=watch_props)
         info["in_hand_start"] = self._in_hand().tolist()  # how the tool hangs at the start pose
-        if hit_before[0]:
+        info["prop_shift_before_motion"] = self._prop_shift(props_at_rest)
+        if hit_before[0] or info["prop_shift_before_motion"] > e.prop_moved:
             return TrialResult(True, False, True, FailureReason.COLLISION_BEFORE_MOTION, info)
         if not self._held():
             return TrialResult(True, False, True, FailureReason.DROPPED, info)
@@ -904,6 +947,7 @@ class Simulator:
     def _primitive(self, info: dict[str, Any]) -> TrialResult:
         assert self.task is not None
         self._release_cans()  # the primitive always runs with every can in play
+        props_before = self._prop_positions()
         d, g = self.data, self.config.gripper
         touched = [False]
         n_cans = len(self._scene["layout"].get("cans", []))
@@ -975,8 +1019,12 @@ class Simulator:
         if self.task_name == "hammering":
             c = self.config.hammering
             values["peg_out"] = float(0.5 * c.peg_length - d.qpos[self._peg_qadr])
+        # A short blow can fall between two checked steps: a target that moved was touched.
+        touched[0] = touched[0] or self._prop_shift(props_before) > self.config.episode.prop_moved
         outcome = TaskOutcome(touched_targets=touched[0], still_moving=still, values=values)
         success, failure = self.task.evaluate(outcome)
+        if not success and not held_after:
+            failure = FailureReason.DROPPED  # the tool slipped out of the fingers during the primitive
         info.update(values)
         info["held_after_primitive"] = held_after
         info["touched_targets"] = touched[0]

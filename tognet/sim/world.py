@@ -19,6 +19,8 @@ GROUP_STATIC, GROUP_OBJECT_VISUAL, GROUP_GRIPPER, GROUP_OBJECT_COLLISION, GROUP_
 CAMERA_GROUPS = (GROUP_STATIC, GROUP_OBJECT_VISUAL)
 MAX_CANS = 2
 PARK = (0.3, 0.0, 1.2)
+# Travel of the gripper base's slide joints (m): x, y, z of the grasp centre.
+BASE_RANGE = ((-2.0, 2.0), (-2.0, 2.0), (-0.2, 2.0))
 
 
 def _v(values: object) -> str:
@@ -75,13 +77,13 @@ def _gripper_xml(config: SimConfig) -> tuple[list[str], list[str]]:
     carriage = 'mass="1.0" diaginertia="0.01 0.01 0.01"'
     body = [
         '<body name="carriage_x" gravcomp="1">',
-        '  <joint name="grip_x" type="slide" axis="1 0 0" range="-2 2" damping="5"/>',
+        f'  <joint name="grip_x" type="slide" axis="1 0 0" range="{_v(BASE_RANGE[0])}" damping="5"/>',
         f"  <inertial pos='0 0 0' {carriage}/>",
         '  <body name="carriage_y" gravcomp="1">',
-        '    <joint name="grip_y" type="slide" axis="0 1 0" range="-2 2" damping="5"/>',
+        f'    <joint name="grip_y" type="slide" axis="0 1 0" range="{_v(BASE_RANGE[1])}" damping="5"/>',
         f"    <inertial pos='0 0 0' {carriage}/>",
         '    <body name="carriage_z" gravcomp="1">',
-        '      <joint name="grip_z" type="slide" axis="0 0 1" range="-0.2 2" damping="5"/>',
+        f'      <joint name="grip_z" type="slide" axis="0 0 1" range="{_v(BASE_RANGE[2])}" damping="5"/>',
         f"      <inertial pos='0 0 0' {carriage}/>",
         '      <body name="hand" gravcomp="1">',
         f'        <joint name="grip_yaw" type="hinge" axis="0 0 1" armature="{g.yaw_armature:g}" '

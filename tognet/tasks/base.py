@@ -19,7 +19,7 @@ class FailureReason(StrEnum):
 
     NONE = "none"
     GRASP_FAILED = "grasp_failed"  # the tool was not held clear of the table after the lift
-    DROPPED = "dropped"  # the tool slipped out of the fingers after a successful grasp
+    DROPPED = "dropped"  # the tool slipped out of the fingers after a successful grasp (failed task)
     COLLISION_BEFORE_MOTION = (
         "collision_before_motion"  # tool or gripper hit a task prop before the primitive
     )
