@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test lint install clean
+.PHONY: run test lint install clean system-deps
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -25,6 +25,17 @@ test: $(STAMP)
 
 lint: $(STAMP)
 	$(BIN)/ruff check tognet tests benchmarks
+
+## Debian/Ubuntu libraries for MuJoCo's headless renderer (the --gif animations): Mesa's EGL and GL.
+## Needs root (or sudo); nothing else in tognet needs system packages.
+SYSTEM_PACKAGES := libegl1 libgl1 libgles2
+system-deps:
+	@if ldconfig -p | grep -q libEGL.so.1 && ldconfig -p | grep -q libGL.so.1; then \
+	  echo "system-deps: EGL and GL libraries already present"; \
+	else \
+	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $(SYSTEM_PACKAGES); \
+	fi
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache .ruff_cache

@@ -1,5 +1,7 @@
 """``tognet sim``: one episode from the command line, with an animation when a GL backend exists."""
 
+import os
+
 import numpy as np
 import pytest
 from typer.testing import CliRunner
@@ -28,7 +30,9 @@ def test_sim_command_writes_a_gif(tmp_path):
     try:
         probe = mujoco.Renderer(mujoco.MjModel.from_xml_string("<mujoco/>"), 8, 8)
         probe.close()
-    except Exception as exc:  # no EGL/OSMesa on this machine: .ci/run installs them when it can
+    except Exception as exc:  # no EGL on this machine (`make system-deps` installs it)
+        if os.environ.get("TOGNET_REQUIRE_GL") == "1":  # set by .ci/run after installing it
+            pytest.fail(f"TOGNET_REQUIRE_GL=1 but MuJoCo's offscreen renderer does not start: {exc}")
         pytest.skip(f"no offscreen GL backend: {exc}")
     out = tmp_path / "ep.gif"
     result = CliRunner().invoke(app, ["sim", "--task", "hammering", "--gif", str(out)])
@@ -49,6 +53,7 @@ def test_sim_command_writes_a_gif(tmp_path):
         (["--depth-png", "{tmp}/depth.jpg"], "--depth-png must name a .png file"),
         (["--action", "0", "0", "inf", "0"], "--action takes 4 finite numbers"),
         (["--grasp", "nan", "0", "0", "0"], "--grasp takes 4 finite numbers"),
+        (["--task", "grasping", "--action", "0", "0", "0", "0"], "--action has no use with --task grasping"),
     ],
 )
 def test_sim_command_refuses_bad_input_before_any_work(tmp_path, args, message):
@@ -56,3 +61,29 @@ def test_sim_command_refuses_bad_input_before_any_work(tmp_path, args, message):
     result = CliRunner().invoke(app, ["sim", *args])
     assert result.exit_code == 2 and message in result.output, result.output
     assert "grasp_success" not in result.output and not list(tmp_path.iterdir())
+
+
+def test_sim_command_refuses_a_grasp_out_of_reach_and_warns_off_the_table(tmp_path):
+    far = CliRunner().invoke(app, ["sim", "--task", "sweeping", "--grasp", "5", "5", "0.1", "0"])
+    assert far.exit_code == 2 and "out of the gripper's reach: x = 5.000" in far.output, far.output
+    assert "grasp_success" not in far.output
+    beside = CliRunner().invoke(app, ["sim", "--task", "grasping", "--grasp", "0.9", "0", "0.1", "0"])
+    assert beside.exit_code == 0 and "off the table top" in beside.output
+    assert "failure=grasp_failed" in beside.output
+
+
+def test_sim_gif_without_a_gl_backend_says_what_to_install(tmp_path):
+    """No renderer (MUJOCO_GL=disable stands in for a machine without EGL): a clear error, no file."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "ep.gif"
+    env = {**os.environ, "MUJOCO_GL": "disable"}
+    code = "from tognet.cli import main; main()"
+    proc = subprocess.run(
+        [sys.executable, "-c", code, "sim", "--task", "grasping", "--gif", str(out)],
+        env=env, capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    assert "offscreen renderer did not start" in proc.stderr and "make system-deps" in proc.stderr
+    assert not out.exists()

@@ -1,10 +1,13 @@
 """The simulated world (the only package that imports MuJoCo): table, camera, gripper, task props."""
 
+import ctypes.util as _ctypes_util
 import os as _os
 
-# MuJoCo's offscreen renderer needs a GL backend chosen before mujoco is imported: EGL when headless.
+# MuJoCo's offscreen renderer needs a GL backend chosen before mujoco is imported: EGL when headless. A
+# machine without Mesa's EGL (`make system-deps` installs it) gets none, so that `import mujoco` does not
+# trip over a half-present GL stack; only the animations then need it (they say so).
 if "MUJOCO_GL" not in _os.environ and not _os.environ.get("DISPLAY"):
-    _os.environ["MUJOCO_GL"] = "egl"
+    _os.environ["MUJOCO_GL"] = "egl" if _ctypes_util.find_library("EGL") else "disable"
 
 from tognet.sim.config import (
     CameraConfig,

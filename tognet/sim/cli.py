@@ -11,6 +11,15 @@ import typer
 from tognet.cliutil import user_errors
 
 
+def _short(value: object) -> object:
+    """``value`` with its floats (also inside lists) rounded to 4 decimals, for printing."""
+    if isinstance(value, float):
+        return round(value, 4)
+    if isinstance(value, (list, tuple)):
+        return [_short(v) for v in value]
+    return value
+
+
 def register(app: typer.Typer) -> None:
     """Add the ``sim`` command to the tognet app."""
 
@@ -48,6 +57,8 @@ def register(app: typer.Typer) -> None:
         for values, name in ((grasp, "--grasp"), (action, "--action")):
             if values is not None and not all(math.isfinite(v) for v in values):
                 raise ValueError(f"{name} takes 4 finite numbers, got {' '.join(map(str, values))}")
+        if task == "grasping" and action is not None:
+            raise ValueError("--action has no use with --task grasping (the episode ends after the lift)")
         for path, suffix, name in ((gif, ".gif", "--gif"), (depth_png, ".png", "--depth-png")):
             if path is not None and (path.suffix.lower() != suffix or path.is_dir()):
                 raise ValueError(f"{name} must name a {suffix} file, got '{path}'")
@@ -84,6 +95,13 @@ def register(app: typer.Typer) -> None:
                 )
             else:
                 g = Grasp.from_array(grasp)
+                half = 0.5 * np.asarray(cfg.world.table_size)
+                if abs(g.x) > half[0] or abs(g.y) > half[1]:
+                    typer.echo(
+                        f"warning: the grasp ({g.x:.3f}, {g.y:.3f}) is off the table top "
+                        f"(|x| <= {half[0]:.2f}, |y| <= {half[1]:.2f}); the object lies at "
+                        f"{', '.join(f'{v:.3f}' for v in sim.object_pose()[0][:2])}"
+                    )
             a = np.zeros(4) if action is None else np.asarray(action, dtype=np.float64)
             recorder = None
             if gif is not None:
@@ -97,7 +115,7 @@ def register(app: typer.Typer) -> None:
                 f"valid={result.valid} failure={result.failure.value}"
             )
             for key, value in result.info.items():
-                typer.echo(f"  {key}: {value}")
+                typer.echo(f"  {key}: {_short(value)}")
             if recorder is not None and gif is not None:
                 recorder.save(gif)
                 recorder.close()

@@ -2,11 +2,18 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
 import mujoco
 import numpy as np
+
+from tognet.errors import TognetError
+
+
+class RenderError(TognetError):
+    """MuJoCo's offscreen renderer cannot start on this machine (no GL backend)."""
 
 
 class GifRecorder:
@@ -23,7 +30,15 @@ class GifRecorder:
         azimuth: float = 90.0,
         elevation: float = -40.0,
     ) -> None:
-        self.renderer = mujoco.Renderer(model, height, width)
+        try:
+            self.renderer = mujoco.Renderer(model, height, width)
+        except Exception as exc:  # no GL backend: say what to install rather than a GL stack trace
+            backend = os.environ.get("MUJOCO_GL", "(default)")
+            raise RenderError(
+                f"MuJoCo's offscreen renderer did not start (MUJOCO_GL={backend}): {exc}. On a headless "
+                "Debian/Ubuntu machine install Mesa's EGL with `make system-deps` (apt-get install libegl1 "
+                "libgl1 libgles2); with a display, MUJOCO_GL=glfw."
+            ) from exc
         self.camera = mujoco.MjvCamera()
         self.camera.lookat[:] = lookat
         self.camera.distance = distance
