@@ -23,11 +23,45 @@ initial grasps of shape (N >= 1, 4)"), so check ``len(cands)`` first. Bad images
 dtype, millimetres, all holes) raise :class:`tognet.geometry.DepthImageError` naming the problem.
 """
 
-from tognet.grasping.antipodal import AntipodalConfig, GraspCandidates, grasp_depths, sample_antipodal
+import importlib
+from typing import TYPE_CHECKING, Any
+
+# Imported now: these functions share their modules' names, and a lazy name would lose to the module
+# once anything imports it (both are light).
 from tognet.grasping.cem import CEMConfig, CEMResult, GaussianMixture, ScoreFn, cem, fit_gmm
-from tognet.grasping.crops import CropConfig, center_crops, crop_grid, extract_crops
-from tognet.grasping.depth import DepthScene, fill_holes, height_map, load_depth_file, prepare_depth
 from tognet.grasping.nms import NMSConfig, angle_difference, grasp_distances, nms
+
+if TYPE_CHECKING:  # the names below, for type checkers; at run time they load on first use
+    from tognet.grasping.antipodal import AntipodalConfig, GraspCandidates, grasp_depths, sample_antipodal
+    from tognet.grasping.crops import CropConfig, center_crops, crop_grid, extract_crops
+    from tognet.grasping.depth import DepthScene, fill_holes, height_map, load_depth_file, prepare_depth
+
+# name -> the module that defines it; loaded on first use, so `tognet --help` need not import
+# every dependency (torch, trimesh) of every area.
+_WHERE = {
+    "AntipodalConfig": "tognet.grasping.antipodal",
+    "GraspCandidates": "tognet.grasping.antipodal",
+    "grasp_depths": "tognet.grasping.antipodal",
+    "sample_antipodal": "tognet.grasping.antipodal",
+    "CropConfig": "tognet.grasping.crops",
+    "center_crops": "tognet.grasping.crops",
+    "crop_grid": "tognet.grasping.crops",
+    "extract_crops": "tognet.grasping.crops",
+    "DepthScene": "tognet.grasping.depth",
+    "fill_holes": "tognet.grasping.depth",
+    "height_map": "tognet.grasping.depth",
+    "load_depth_file": "tognet.grasping.depth",
+    "prepare_depth": "tognet.grasping.depth",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _WHERE:
+        value = getattr(importlib.import_module(_WHERE[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = [
     "AntipodalConfig",

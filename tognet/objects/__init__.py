@@ -1,9 +1,41 @@
 """Tool objects: procedural (PG-Primitive, PG-Complex), realistic and user meshes, as MuJoCo assets."""
 
-from tognet.objects.assemble import MeshError, assemble_object
-from tognet.objects.generate import GeneratorConfig, generate_object, generate_set, object_id, object_seed
-from tognet.objects.importer import ImportReport, import_meshes
-from tognet.objects.record import CatalogError, ObjectRecord, load_catalog, load_object, write_catalog
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the names below, for type checkers; at run time they load on first use
+    from tognet.objects.assemble import MeshError, assemble_object
+    from tognet.objects.generate import GeneratorConfig, generate_object, generate_set, object_id, object_seed
+    from tognet.objects.importer import ImportReport, import_meshes
+    from tognet.objects.record import CatalogError, ObjectRecord, load_catalog, load_object, write_catalog
+
+# name -> the module that defines it; loaded on first use, so `tognet --help` need not import
+# every dependency (torch, trimesh) of every area.
+_WHERE = {
+    "MeshError": "tognet.objects.assemble",
+    "assemble_object": "tognet.objects.assemble",
+    "GeneratorConfig": "tognet.objects.generate",
+    "generate_object": "tognet.objects.generate",
+    "generate_set": "tognet.objects.generate",
+    "object_id": "tognet.objects.generate",
+    "object_seed": "tognet.objects.generate",
+    "ImportReport": "tognet.objects.importer",
+    "import_meshes": "tognet.objects.importer",
+    "CatalogError": "tognet.objects.record",
+    "ObjectRecord": "tognet.objects.record",
+    "load_catalog": "tognet.objects.record",
+    "load_object": "tognet.objects.record",
+    "write_catalog": "tognet.objects.record",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _WHERE:
+        value = getattr(importlib.import_module(_WHERE[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = [
     "CatalogError",
