@@ -10,6 +10,8 @@ generated PG-Primitive objects with the default grasp. Models are built once per
 The same seeded episodes run ``--repeats`` times. Episodes are deterministic, so the fastest of the
 repeats of each episode is its cost on an unshared core ("best-of" rate, as timeit takes the minimum);
 the median of the repeats' rates shows what a shared core gave. Both are per CPU core (one process).
+The shares (physics, ray casting, the rest) are of the last repeat's wall time, the clock the simulator's
+own timers use (on a shared core, CPU and wall time differ).
 This machine's speed drifts (a virtual machine: +-30 % within minutes, 2x between sessions), so every
 repeat also times a fixed reference workload that does not depend on tognet (a MuJoCo box stack stepped
 in C, a pure-Python loop): compare figures from different days through it.
@@ -94,6 +96,7 @@ def bench(task: str, records: list, episodes: int, repeats: int, cfg: SimConfig)
         sims.append(Simulator(cfg, task, rec))
         build += time.perf_counter() - t0
     cpu = np.zeros((repeats, episodes))  # CPU seconds per episode and repeat
+    wall = np.zeros((repeats, episodes))  # wall seconds, the clock of the simulator's own timers
     refs = []
     full = 0
     for r in range(repeats):
@@ -103,13 +106,14 @@ def bench(task: str, records: list, episodes: int, repeats: int, cfg: SimConfig)
             s.steps = 0
         for i in range(episodes):
             sim = sims[i % len(sims)]
-            t0 = time.process_time()
+            t0, w0 = time.process_time(), time.perf_counter()
             sim.reset(i)
             grasp, action = _plan(sim, i)
             res = sim.execute(grasp, action, i)
             cpu[r, i] = time.process_time() - t0
+            wall[r, i] = time.perf_counter() - w0
             full += int(r == 0 and res.grasp_success)
-    total = cpu[-1].sum()
+    total = wall[-1].sum()  # shares: the physics and ray-casting timers are wall time too
     physics = sum(s.timers["physics"] for s in sims)
     ray = sum(s.timers["raycast"] for s in sims)
     steps = sum(s.steps for s in sims)
