@@ -6,30 +6,15 @@ contact sampling alone labelled wrongly (found by running every step and watchin
 """
 
 import numpy as np
-import pytest
+from sim_testlib import far_end_grasp
 
 from tognet.geometry import Grasp
 from tognet.objects.generate import generate_set
 from tognet.sim import FailureReason, SimConfig, Simulator
-from tognet.sim.checks import HAMMER_GRASPS, SWEEP_GRASPS, sweep_action
-from tognet.sim.tools import grasp_on_object, make_test_tools
+from tognet.sim.checks import SWEEP_GRASPS, sweep_action
+from tognet.sim.tools import grasp_on_object
 
 PEG_HALF = 0.5 * SimConfig().hammering.peg_length
-
-
-@pytest.fixture(scope="module")
-def tools(tmp_path_factory):
-    return make_test_tools(tmp_path_factory.mktemp("tools"))
-
-
-@pytest.fixture(scope="module")
-def hammer_sim(tools):
-    return Simulator(SimConfig(), "hammering", tools["t_hammer"])
-
-
-def _far_end(sim):
-    pos, rot = sim.object_pose()
-    return grasp_on_object(pos, rot, *HAMMER_GRASPS["far_end"][:2])
 
 
 def _generated(tmp_path, index):
@@ -40,7 +25,7 @@ def test_a_blow_between_two_contact_checks_still_touches_the_peg(hammer_sim):
     """The swing hits the peg for a few steps between two checks: the peg moved, so it was not a miss."""
     hammer_sim.reset(1)
     action = [0.03631789, 0.00414612, -0.02002881, -0.02428853]
-    res = hammer_sim.execute(_far_end(hammer_sim), action, 0)
+    res = hammer_sim.execute(far_end_grasp(hammer_sim), action, 0)
     assert res.grasp_success and not res.task_success
     assert res.info["peg_out"] < PEG_HALF - 0.01  # pushed in by more than a centimetre
     assert res.failure == FailureReason.TASK_FAILED
@@ -51,7 +36,7 @@ def test_missed_means_the_peg_never_moved(hammer_sim):
     reasons = set()
     for seed in range(3):
         hammer_sim.reset(seed)
-        grasp = _far_end(hammer_sim)
+        grasp = far_end_grasp(hammer_sim)
         for k in range(4):
             res = hammer_sim.execute(grasp, hammer_sim.task.random_action(rng), k)
             reasons.add(res.failure)
@@ -65,7 +50,7 @@ def test_missed_means_the_peg_never_moved(hammer_sim):
 
 def test_a_start_pose_on_the_slot_is_a_collision_before_the_swing(hammer_sim):
     hammer_sim.reset(0)
-    res = hammer_sim.execute(_far_end(hammer_sim), [0.1, -0.13, -0.05, 0.0], 0)
+    res = hammer_sim.execute(far_end_grasp(hammer_sim), [0.1, -0.13, -0.05, 0.0], 0)
     assert res.grasp_success and not res.task_success
     assert res.failure == FailureReason.COLLISION_BEFORE_MOTION
 

@@ -1,18 +1,12 @@
 """The in-hand pose a trial reports and the oracle actions built from it (both jaw orientations)."""
 
 import numpy as np
-import pytest
 
 from tognet.geometry import Grasp
 from tognet.sim import SimConfig, Simulator
 from tognet.sim.checks import HAMMER_GRASPS, SWEEP_GRASPS
 from tognet.sim.oracle import hammer_actions, sweep_actions, tool_in_gripper
-from tognet.sim.tools import grasp_on_object, make_test_tools
-
-
-@pytest.fixture(scope="module")
-def tools(tmp_path_factory):
-    return make_test_tools(tmp_path_factory.mktemp("tools"))
+from tognet.sim.tools import grasp_on_object
 
 
 def test_in_hand_pose_puts_the_grasp_point_at_the_gripper_centre(tools):

@@ -3,27 +3,12 @@
 import mujoco
 import numpy as np
 import pytest
+from sim_testlib import far_end_grasp
 
 from tognet.geometry import Camera, CameraIntrinsics, Grasp
 from tognet.geometry.transforms import make_pose, rot_x
 from tognet.sim import FailureReason, SimConfig, Simulator
-from tognet.sim.checks import HAMMER_GRASPS, hammer_action
-from tognet.sim.tools import grasp_on_object, make_test_tools
-
-
-@pytest.fixture(scope="module")
-def tools(tmp_path_factory):
-    return make_test_tools(tmp_path_factory.mktemp("tools"))
-
-
-@pytest.fixture(scope="module")
-def hammer_sim(tools):
-    return Simulator(SimConfig(), "hammering", tools["t_hammer"])
-
-
-def far_end_grasp(sim):
-    pos, rot = sim.object_pose()
-    return grasp_on_object(pos, rot, *HAMMER_GRASPS["far_end"][:2])
+from tognet.sim.checks import hammer_action
 
 
 def full_ray_cast(sim, cam):

@@ -23,21 +23,20 @@ initial grasps of shape (N >= 1, 4)"), so check ``len(cands)`` first. Bad images
 dtype, millimetres, all holes) raise :class:`tognet.geometry.DepthImageError` naming the problem.
 """
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 # Imported now: these functions share their modules' names, and a lazy name would lose to the module
 # once anything imports it (both are light).
 from tognet.grasping.cem import CEMConfig, CEMResult, GaussianMixture, ScoreFn, cem, fit_gmm
 from tognet.grasping.nms import NMSConfig, angle_difference, grasp_distances, nms
+from tognet.lazy_names import lazy_getattr
 
 if TYPE_CHECKING:  # the names below, for type checkers; at run time they load on first use
     from tognet.grasping.antipodal import AntipodalConfig, GraspCandidates, grasp_depths, sample_antipodal
     from tognet.grasping.crops import CropConfig, center_crops, crop_grid, extract_crops
     from tognet.grasping.depth import DepthScene, fill_holes, height_map, load_depth_file, prepare_depth
 
-# name -> the module that defines it; loaded on first use, so `tognet --help` need not import
-# every dependency (torch, trimesh) of every area.
+# name -> the module that defines it; loaded on first use (tognet.lazy_names).
 _WHERE = {
     "AntipodalConfig": "tognet.grasping.antipodal",
     "GraspCandidates": "tognet.grasping.antipodal",
@@ -55,12 +54,7 @@ _WHERE = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    if name in _WHERE:
-        value = getattr(importlib.import_module(_WHERE[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = lazy_getattr(__name__, _WHERE)
 
 
 __all__ = [

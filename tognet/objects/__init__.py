@@ -1,7 +1,8 @@
 """Tool objects: procedural (PG-Primitive, PG-Complex), realistic and user meshes, as MuJoCo assets."""
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from tognet.lazy_names import lazy_getattr
 
 if TYPE_CHECKING:  # the names below, for type checkers; at run time they load on first use
     from tognet.objects.assemble import MeshError, assemble_object
@@ -9,8 +10,7 @@ if TYPE_CHECKING:  # the names below, for type checkers; at run time they load o
     from tognet.objects.importer import ImportReport, import_meshes
     from tognet.objects.record import CatalogError, ObjectRecord, load_catalog, load_object, write_catalog
 
-# name -> the module that defines it; loaded on first use, so `tognet --help` need not import
-# every dependency (torch, trimesh) of every area.
+# name -> the module that defines it; loaded on first use (tognet.lazy_names).
 _WHERE = {
     "MeshError": "tognet.objects.assemble",
     "assemble_object": "tognet.objects.assemble",
@@ -29,12 +29,7 @@ _WHERE = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    if name in _WHERE:
-        value = getattr(importlib.import_module(_WHERE[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = lazy_getattr(__name__, _WHERE)
 
 
 __all__ = [

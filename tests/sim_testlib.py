@@ -1,0 +1,14 @@
+"""Helpers for the simulator tests."""
+
+from __future__ import annotations
+
+from tognet.geometry import Grasp
+from tognet.sim import Simulator
+from tognet.sim.checks import HAMMER_GRASPS
+from tognet.sim.tools import grasp_on_object
+
+
+def far_end_grasp(sim: Simulator) -> Grasp:
+    """The T hammer's far-end-of-the-handle grasp on the settled scene."""
+    pos, rot = sim.object_pose()
+    return grasp_on_object(pos, rot, *HAMMER_GRASPS["far_end"][:2])
