@@ -33,10 +33,13 @@ def register(app: typer.Typer) -> None:
         objects: Path | None = typer.Option(None, help="Object set folder (with catalog.json)."),
         grasp: tuple[float, float, float, float] | None = typer.Option(
             None,
+            metavar="X Y Z PHI",
             help="Grasp x y z phi (world, m, rad). Default: at the centre of mass, across the narrow side.",
         ),
         action: tuple[float, float, float, float] | None = typer.Option(
-            None, help="Action a_x a_y a_z a_phi relative to the task's nominal start pose. Default: zeros."
+            None,
+            metavar="AX AY AZ APHI",
+            help="Action a_x a_y a_z a_phi relative to the task's nominal start pose. Default: zeros.",
         ),
         seed: int = typer.Option(0, help="Scene seed (object drop, camera, props)."),
         trial_seed: int = typer.Option(0, help="Execution-noise seed of the trial."),
