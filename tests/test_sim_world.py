@@ -217,3 +217,14 @@ def test_fingers_close_smoothly_and_alike_at_any_time_step(tools):
         assert pos[-1] < 0.5 * g.max_opening - 0.02  # it got somewhere
     (p2, _, _), (p1, _, _) = runs[0.002], runs[0.001]
     np.testing.assert_allclose(p2, p1, atol=0.001)  # the same closing at either time step
+
+
+def test_a_hard_blow_stops_the_peg_at_the_slot_floor(hammer_sim):
+    """The peg's travel ends at the slot's floor (1 mm past flush), not a few millimetres beyond it."""
+    outs = []
+    for seed in range(3):
+        hammer_sim.reset(seed)
+        res = hammer_sim.execute(far_end_grasp(hammer_sim), hammer_action(hammer_sim, "far_end"), seed)
+        assert res.task_success
+        outs.append(res.info["peg_out"])
+    assert min(outs) > -0.0018, outs

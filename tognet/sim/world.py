@@ -148,7 +148,9 @@ def _props_xml(config: SimConfig, task: str) -> list[str]:
         s, length = c.peg_size, c.peg_length
         # The slot body sits on the slot face at the peg's axis height; the peg slides along +x into it.
         # A very stiff friction-loss constraint (solreffriction at the minimum safe time constant) stops
-        # the creep MuJoCo's soft dry friction shows under a slow push.
+        # the creep MuJoCo's soft dry friction shows under a slow push. The joint's limits are as stiff
+        # (solreflimit): the slot's floor stops a hard-driven peg (MuJoCo's default limit let it sink 3-5 mm
+        # past the floor on a good blow).
         dt = config.physics.timestep
         return [
             f'<body name="slot" pos="0.3 0 {c.peg_height:g}">',
@@ -158,7 +160,7 @@ def _props_xml(config: SimConfig, task: str) -> list[str]:
             'rgba="0.3 0.45 0.7 1"/>',
             '  <body name="peg">',
             f'    <joint name="peg" type="slide" axis="1 0 0" range="-0.001 {0.5 * length + 0.001:g}" '
-            f'frictionloss="{c.peg_friction:g}" solreffriction="{2 * dt:g} 1" '
+            f'frictionloss="{c.peg_friction:g}" solreffriction="{2 * dt:g} 1" solreflimit="{2 * dt:g} 1" '
             f'solimpfriction="{c.peg_friction_impedance:g} {c.peg_friction_impedance:g} 0.001"/>',
             f'    <geom name="peg" type="box" size="{0.5 * length:g} {0.5 * s:g} {0.5 * s:g}" '
             f'mass="{c.peg_mass:g}" '
