@@ -30,11 +30,12 @@ lint: $(STAMP)
 ## Needs root (or sudo); nothing else in tognet needs system packages.
 SYSTEM_PACKAGES := libegl1 libgl1 libgles2
 system-deps:
-	@if ldconfig -p | grep -q libEGL.so.1 && ldconfig -p | grep -q libGL.so.1; then \
+	@export PATH="$$PATH:/usr/sbin:/sbin"; \
+	if ldconfig -p | grep -q libEGL.so.1 && ldconfig -p | grep -q libGL.so.1; then \
 	  echo "system-deps: EGL and GL libraries already present"; \
 	else \
 	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
-	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $(SYSTEM_PACKAGES); \
+	  $$SUDO apt-get update -qq && $$SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(SYSTEM_PACKAGES); \
 	fi
 
 clean:

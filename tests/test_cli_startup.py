@@ -23,6 +23,7 @@ def test_lazy_package_names_resolve_and_unknown_names_fail():
 
     assert callable(grasping.extract_crops) and callable(grasping.nms) and callable(grasping.cem)
     assert callable(objects.generate_set) and objects.ObjectRecord.__name__ == "ObjectRecord"
+    assert "extract_crops" in dir(grasping) and "generate_set" in dir(objects)
     with pytest.raises(AttributeError, match="no attribute 'nope'"):
         _ = grasping.nope
     namespace: dict = {}

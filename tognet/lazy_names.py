@@ -8,9 +8,9 @@ from collections.abc import Callable
 from typing import Any
 
 
-def lazy_getattr(package: str, where: dict[str, str]) -> Callable[[str], Any]:
-    """A module ``__getattr__`` for ``package``: each name in ``where`` comes from the module named there,
-    imported (and the name cached in the package) on first use."""
+def lazy_names(package: str, where: dict[str, str]) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
+    """A module's ``__getattr__`` and ``__dir__`` for ``package``: each name in ``where`` comes from the
+    module named there, imported (and the name cached in the package) on first use."""
 
     def __getattr__(name: str) -> Any:
         module = where.get(name)
@@ -20,4 +20,7 @@ def lazy_getattr(package: str, where: dict[str, str]) -> Callable[[str], Any]:
         setattr(sys.modules[package], name, value)
         return value
 
-    return __getattr__
+    def __dir__() -> list[str]:
+        return sorted({*vars(sys.modules[package]), *where})
+
+    return __getattr__, __dir__

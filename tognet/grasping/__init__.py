@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING
 # once anything imports it (both are light).
 from tognet.grasping.cem import CEMConfig, CEMResult, GaussianMixture, ScoreFn, cem, fit_gmm
 from tognet.grasping.nms import NMSConfig, angle_difference, grasp_distances, nms
-from tognet.lazy_names import lazy_getattr
+from tognet.lazy_names import lazy_names
 
 if TYPE_CHECKING:  # the names below, for type checkers; at run time they load on first use
     from tognet.grasping.antipodal import AntipodalConfig, GraspCandidates, grasp_depths, sample_antipodal
@@ -54,7 +54,7 @@ _WHERE = {
 }
 
 
-__getattr__ = lazy_getattr(__name__, _WHERE)
+__getattr__, __dir__ = lazy_names(__name__, _WHERE)
 
 
 __all__ = [

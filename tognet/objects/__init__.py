@@ -2,7 +2,7 @@
 
 from typing import TYPE_CHECKING
 
-from tognet.lazy_names import lazy_getattr
+from tognet.lazy_names import lazy_names
 
 if TYPE_CHECKING:  # the names below, for type checkers; at run time they load on first use
     from tognet.objects.assemble import MeshError, assemble_object
@@ -29,7 +29,7 @@ _WHERE = {
 }
 
 
-__getattr__ = lazy_getattr(__name__, _WHERE)
+__getattr__, __dir__ = lazy_names(__name__, _WHERE)
 
 
 __all__ = [

@@ -17,7 +17,8 @@ lets it settle, disturbs the camera, takes one depth image by ray casting and sa
    a settling time; the task's rule labels S_T. A can that reaches the ground has done its part and is
    taken out of the scene (its fast impact is not simulated). The targets count as touched when a checked
    step saw the contact or when they moved by ``prop_moved``. A failed task with the tool no longer between
-   both fingers after the motion is DROPPED (it slipped during the primitive), else the task's reason.
+   both fingers after the motion and after the settling time is DROPPED (it slipped out during the
+   primitive), else the task's reason.
 
 Any NaN, joint speed above ``max_speed`` or contact deeper than ``max_penetration`` (ground contacts
 excepted) makes the trial invalid (UNSTABLE), never a success or a failure. Afterwards the world is back
@@ -816,11 +817,11 @@ class Simulator:
         return result
 
     def _check_reach(self, grasp: Grasp, action: Any) -> None:
-        """ValueError when the grasp (with its approach height) or the action's start pose (with its
+        """ValueError when the grasp (with its approach and lift) or the action's start pose (with its
         clearance) lies outside the travel of the gripper base's joints (``world.BASE_RANGE``)."""
         g = self.config.gripper
         margin = 0.05  # room for the execution noise and the servo's overshoot
-        points = [("grasp", np.array([grasp.x, grasp.y, grasp.z]), g.approach_height)]
+        points = [("grasp", np.array([grasp.x, grasp.y, grasp.z]), max(g.approach_height, g.min_lift))]
         if self.task is not None:
             start, _ = self.task.start_pose(self._scene["reference"], action)
             points.append(("the action's start pose", start, g.start_clearance))
@@ -1023,9 +1024,13 @@ class Simulator:
         touched[0] = touched[0] or self._prop_shift(props_before) > self.config.episode.prop_moved
         outcome = TaskOutcome(touched_targets=touched[0], still_moving=still, values=values)
         success, failure = self.task.evaluate(outcome)
-        if not success and not held_after:
+        # The finger contacts flicker while the tool strikes or drags: out of the hand means not held at
+        # the end of the motion and still not held once everything settled.
+        held_settled = self._held()
+        if not success and not held_after and not held_settled:
             failure = FailureReason.DROPPED  # the tool slipped out of the fingers during the primitive
         info.update(values)
         info["held_after_primitive"] = held_after
+        info["held_after_settling"] = held_settled
         info["touched_targets"] = touched[0]
         return TrialResult(True, success, True, failure, info)
