@@ -6,6 +6,7 @@ contact sampling alone labelled wrongly (found by running every step and watchin
 """
 
 import numpy as np
+import pytest
 from sim_testlib import far_end_grasp
 
 from tognet.geometry import Grasp
@@ -126,3 +127,31 @@ def test_finger_contacts_flickering_during_the_stroke_are_not_a_drop(tmp_path):
     assert res.grasp_success and not res.task_success
     assert res.info["held_after_primitive"] is False and res.info["held_after_settling"] is True
     assert res.failure == FailureReason.TASK_FAILED
+
+
+@pytest.mark.parametrize(
+    ("task", "index", "grasp", "action", "seed", "before"),
+    [
+        (  # the tool brushes the slot while it settles at the start pose
+            "hammering", 2,
+            [-0.04557660584579378, -0.09879873369836778, 0.021992155237860644, 1.9337151303376299],
+            [-0.03240192961184546, -0.013465279238080087, 0.024907203147555845, -0.14910404932398905], 1,
+            "missed",
+        ),
+        (  # the tool grazes a can on its way over, moving it 0.01 mm; the stroke then sweeps both off
+            "sweeping", 7,
+            [-0.22033786620573162, 0.15799951960519443, 0.010119057872326866, 5.196568091627677],
+            [0.040411933947584563, 0.003927447936438691, -0.012891378463104224, 0.021547883068758933], 3,
+            "none",
+        ),
+    ],
+)  # fmt: skip
+def test_a_brief_touch_before_the_motion_is_seen(tmp_path, task, index, grasp, action, seed, before):
+    """Near the props every step's contacts are looked at: touches too brief for the every-10-steps check
+    and too light to move a prop still fail the trial (these two were labelled ``before`` without it)."""
+    sim = Simulator(SimConfig(), task, generate_set("primitive", "test", 1, tmp_path, start=index)[0])
+    sim.reset(0)
+    res = sim.execute(Grasp.from_array(grasp), action, seed)
+    assert res.grasp_success and not res.task_success
+    assert res.info["prop_shift_before_motion"] <= sim.config.episode.prop_moved  # not seen by motion
+    assert res.failure == FailureReason.COLLISION_BEFORE_MOTION, before

@@ -42,7 +42,7 @@ from tognet.geometry.raster import mesh_depth
 from tognet.geometry.transforms import make_pose, rot_x, rot_y, rot_z
 from tognet.objects.record import ObjectRecord
 from tognet.sim.config import SimConfig
-from tognet.sim.world import BASE_RANGE, GROUP_OBJECT_VISUAL, MAX_CANS, PARK, world_xml
+from tognet.sim.world import BASE_RANGE, GROUP_OBJECT_VISUAL, MAX_CANS, PARK, touch_sensor_names, world_xml
 from tognet.tasks import TASK_NAMES, FailureReason, Task, TaskOutcome, get_task
 
 SIM_TASKS = (*TASK_NAMES, "grasping")
@@ -51,7 +51,6 @@ SIM_TASKS = (*TASK_NAMES, "grasping")
 OTHER, TABLE, GROUND, OBJECT, FINGER_L, FINGER_R, GRIPPER, CAN, PEG, SLOT = range(10)
 _TOOL_SIDE = np.isin(np.arange(10), (OBJECT, FINGER_L, FINGER_R, GRIPPER))  # the tool or the hand
 _HAND = np.isin(np.arange(10), (FINGER_L, FINGER_R, GRIPPER))
-_PROPS = np.isin(np.arange(10), (CAN, PEG, SLOT))
 
 
 def _hull_2d(points: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -194,7 +193,10 @@ class Simulator:
         self._vertices = self._object_vertices()  # collision vertices, object frame
         self._com = np.asarray(obj.com, dtype=np.float64)  # the body's origin in the object frame
         self._body_vertices = self._vertices - self._com
-        self._tool_prop = self._pair_table(_TOOL_SIDE, _PROPS)
+        # Where the touch sensors (the tool's and the hand's contacts with the props) sit in sensordata; the
+        # world without the cans has none, and a slice past its end is empty: no touch.
+        touch = [int(m.sensor_adr[m.sensor(name).id]) for name in touch_sensor_names(task)]
+        self._touch = slice(min(touch), max(touch) + 1) if touch else slice(0, 0)
         self._visual_geom = m.geom("object_visual").id
         # The visual mesh as MuJoCo compiled it (geom frame), for the depth camera.
         mid = int(m.geom_dataid[self._visual_geom])
@@ -211,6 +213,8 @@ class Simulator:
         self._saved: NDArray[np.float64] | None = None
         self._scene: dict[str, Any] = {}
         self._recorder: Any = None
+        # Called after every physics step while the tool is near the props (see _near_props), else None.
+        self._every_step: Any = None
         self._dt = float(m.opt.timestep)
         self.timers = {"physics": 0.0, "raycast": 0.0}
         self.steps = 0  # physics steps taken since construction (for benchmarks)
@@ -228,7 +232,13 @@ class Simulator:
         if self._held_cans and self._near_cans():
             self._release_cans()
         t0 = time.perf_counter()
-        mujoco.mj_step(self.model, self.data, nstep=n)
+        if self._every_step is not None and self._near_props():
+            watch, m, d = self._every_step, self.model, self.data
+            for _ in range(n):  # near the props: look at every step's contacts (a knock is brief)
+                mujoco.mj_step(m, d)
+                watch()
+        else:
+            mujoco.mj_step(self.model, self.data, nstep=n)
         self.timers["physics"] += time.perf_counter() - t0
         self.steps += n
         if self._recorder is not None:
@@ -644,6 +654,25 @@ class Simulator:
                     return True
         return False
 
+    def _near_props(self) -> bool:
+        """Whether the tool or the hand could touch a prop within the next chunk of steps: a can in play
+        (cans are on hold, out of the world, until the tool comes near), or the object's bounding sphere
+        within reach of a circle around the slot and its peg."""
+        if self.task_name == "sweeping":
+            return bool(self._scene["layout"].get("cans")) and not self._held_cans
+        if self.task_name != "hammering":
+            return False
+        c = self.config.hammering
+        depth, width, _ = c.slot_size
+        half_peg = 0.5 * c.peg_length
+        slot = self.model.body_pos[self._slot_body]
+        cx = float(slot[0]) + 0.5 * (depth - half_peg)  # the peg sticks out toward -x
+        radius = math.hypot(0.5 * (depth + half_peg), 0.5 * width)
+        d = self.data
+        ox, oy = float(d.xpos[self._obj_body, 0]), float(d.xpos[self._obj_body, 1])
+        reach = self._object_reach + radius + 0.1  # + the hand around the grasp and a chunk's travel
+        return math.hypot(ox - cx, oy - float(slot[1])) < reach
+
     def _prop_positions(self) -> NDArray[np.float64]:
         """(k, 3) positions of the task's props now: each can in play (where it stands, on hold or not), or
         the peg's slide (x only); empty for other tasks. A parked can is far from anywhere it stood."""
@@ -809,6 +838,7 @@ class Simulator:
             result = TrialResult(False, False, False, FailureReason.UNSTABLE, info)
         finally:
             info["sim_time"] = float(self.data.time)
+            self._every_step = None
             self._back_to_full_model()
         # Back to the settled scene, so object_pose(), default_grasp() and the next trial see it.
         mujoco.mj_setState(self.model, self.data, self._saved, self._state_spec)
@@ -892,16 +922,14 @@ class Simulator:
         hit_before = [False]
 
         def watch_props() -> None:
-            n = self.data.ncon
-            if hit_before[0] or not n:
-                return
-            geoms = self.data.contact.geom[:n]
-            if self._tool_prop[geoms[:, 0], geoms[:, 1]].any():
+            if not hit_before[0] and self.data.sensordata[self._touch].any():
                 hit_before[0] = True
 
+        self._every_step = watch_props  # near the props, every step's contacts are looked at
         self._move(np.array([start[0], start[1], high]), start_yaw, g.linear_speed, g.yaw_speed, watch_props)
         self._move(start, None, g.linear_speed, g.yaw_speed, watch_props)
         self._converge(monitor=watch_props)
+        self._every_step = None
         info["in_hand_start"] = self._in_hand().tolist()  # how the tool hangs at the start pose
         info["prop_shift_before_motion"] = self._prop_shift(props_at_rest)
         if hit_before[0] or info["prop_shift_before_motion"] > e.prop_moved:

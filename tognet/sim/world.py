@@ -173,6 +173,22 @@ def _props_xml(config: SimConfig, task: str) -> list[str]:
     return []
 
 
+def touch_sensor_names(task: str) -> list[str]:
+    """Names of the contact sensors that count the tool's and the hand's contacts with the task's props."""
+    props = {"sweeping": [f"can_{i}" for i in range(MAX_CANS)], "hammering": ["slot"]}.get(task, [])
+    return [f"touch_{side}_{prop}" for prop in props for side in ("object", "hand")]
+
+
+def _touch_sensors_xml(task: str) -> list[str]:
+    """Contact sensors (MuJoCo computes them every step, cheaply) for a prop touch check after any step."""
+    lines = []
+    for name in touch_sensor_names(task):
+        _, side, prop = name.split("_", 2)
+        first = 'body1="object"' if side == "object" else 'subtree1="hand"'
+        lines.append(f'    <contact name="{name}" {first} subtree2="{prop}" data="found"/>')
+    return ["  <sensor>", *lines, "  </sensor>"] if lines else []
+
+
 def world_xml(config: SimConfig, obj: ObjectRecord, task: str) -> str:
     """The whole world as an MJCF string (meshes by absolute path)."""
     p, w = config.physics, config.world
@@ -217,6 +233,7 @@ def world_xml(config: SimConfig, obj: ObjectRecord, task: str) -> str:
         *[f"    {a}" for a in actuators],
         "  </actuator>",
         *(['  <contact><exclude body1="slot" body2="peg"/></contact>'] if task == "hammering" else []),
+        *_touch_sensors_xml(task),
         "</mujoco>",
         "",
     ]
