@@ -10,9 +10,9 @@ lets it settle, disturbs the camera, takes one depth image by ray casting and sa
    its lowest point is clear of the table. ``info["in_hand"]`` is the tool's (3, 4) pose in the gripper
    frame after the hold (x = jaw axis), for oracles and diagnostics.
 2. transport: to ``start_clearance`` above the start pose (task reference + nominal offset + action, yaw
-   nominal + a_phi, with noise), then down to it. Touching a prop on the way (a contact seen on a checked
-   step, or a prop moved by ``prop_moved``) is COLLISION_BEFORE_MOTION; a tool no longer between both
-   fingers is DROPPED.
+   nominal + a_phi, with noise), then down to it. Touching a prop on the way (a contact: near the props
+   every step's contacts are read, through MuJoCo contact sensors; or a prop moved by ``prop_moved``) is
+   COLLISION_BEFORE_MOTION; a tool no longer between both fingers is DROPPED.
 3. primitive: the task's motion (speed- and force-limited servos, acceleration-limited setpoints), then
    a settling time; the task's rule labels S_T. A can that reaches the ground has done its part and is
    taken out of the scene (its fast impact is not simulated). The targets count as touched when a checked
@@ -662,16 +662,9 @@ class Simulator:
             return bool(self._scene["layout"].get("cans")) and not self._held_cans
         if self.task_name != "hammering":
             return False
-        c = self.config.hammering
-        depth, width, _ = c.slot_size
-        half_peg = 0.5 * c.peg_length
-        slot = self.model.body_pos[self._slot_body]
-        cx = float(slot[0]) + 0.5 * (depth - half_peg)  # the peg sticks out toward -x
-        radius = math.hypot(0.5 * (depth + half_peg), 0.5 * width)
-        d = self.data
-        ox, oy = float(d.xpos[self._obj_body, 0]), float(d.xpos[self._obj_body, 1])
-        reach = self._object_reach + radius + 0.1  # + the hand around the grasp and a chunk's travel
-        return math.hypot(ox - cx, oy - float(slot[1])) < reach
+        cx, cy, reach = self._slot_reach
+        x, y = self.data.xpos[self._obj_body, :2]
+        return math.hypot(float(x) - cx, float(y) - cy) < reach
 
     def _prop_positions(self) -> NDArray[np.float64]:
         """(k, 3) positions of the task's props now: each can in play (where it stands, on hold or not), or
@@ -720,7 +713,14 @@ class Simulator:
                 m.body_inertia[body] = (ixx, ixx, 0.5 * mass * r * r)
         elif self.task_name == "hammering":
             x, y = layout["slot"]
-            m.body_pos[self._slot_body] = (x, y, self.config.hammering.peg_height)
+            c = self.config.hammering
+            m.body_pos[self._slot_body] = (x, y, c.peg_height)
+            # A circle around the slot and its peg (which sticks out toward -x), grown by the object's
+            # reach, the hand around the grasp and a chunk's travel (0.1 m): see _near_props.
+            depth, width, _ = c.slot_size
+            half_peg = 0.5 * c.peg_length
+            radius = math.hypot(0.5 * (depth + half_peg), 0.5 * width)
+            self._slot_reach = (x + 0.5 * (depth - half_peg), y, self._object_reach + radius + 0.1)
             d.qpos[self._peg_qadr] = 0.0
 
     def reset(self, seed: int) -> Observation:

@@ -173,19 +173,24 @@ def _props_xml(config: SimConfig, task: str) -> list[str]:
     return []
 
 
+def _touch_pairs(task: str) -> list[tuple[str, str, str]]:
+    """(sensor name, tool-side MJCF attribute, prop body) of each touch sensor of ``task``."""
+    props = {"sweeping": [f"can_{i}" for i in range(MAX_CANS)], "hammering": ["slot"]}.get(task, [])
+    sides = (("object", 'body1="object"'), ("hand", 'subtree1="hand"'))
+    return [(f"touch_{side}_{prop}", attr, prop) for prop in props for side, attr in sides]
+
+
 def touch_sensor_names(task: str) -> list[str]:
     """Names of the contact sensors that count the tool's and the hand's contacts with the task's props."""
-    props = {"sweeping": [f"can_{i}" for i in range(MAX_CANS)], "hammering": ["slot"]}.get(task, [])
-    return [f"touch_{side}_{prop}" for prop in props for side in ("object", "hand")]
+    return [name for name, _, _ in _touch_pairs(task)]
 
 
 def _touch_sensors_xml(task: str) -> list[str]:
     """Contact sensors (MuJoCo computes them every step, cheaply) for a prop touch check after any step."""
-    lines = []
-    for name in touch_sensor_names(task):
-        _, side, prop = name.split("_", 2)
-        first = 'body1="object"' if side == "object" else 'subtree1="hand"'
-        lines.append(f'    <contact name="{name}" {first} subtree2="{prop}" data="found"/>')
+    lines = [
+        f'    <contact name="{name}" {side} subtree2="{prop}" data="found"/>'
+        for name, side, prop in _touch_pairs(task)
+    ]
     return ["  <sensor>", *lines, "  </sensor>"] if lines else []
 
 
