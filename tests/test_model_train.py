@@ -78,7 +78,7 @@ def test_checkpoint_round_trip_identical_outputs(trained):
 
     model = model_from_checkpoint(payload).eval()
     with torch.no_grad():
-        raw = model(torch.from_numpy(ep.crop), torch.from_numpy(ep.z))
+        raw = model(torch.from_numpy(ep.crop).float(), torch.from_numpy(ep.z))
     a = TOGNetPredictor.load(trained.best_path).predict(ep.crop, ep.z)
     b = TOGNetPredictor.load(trained.best_path).predict(ep.crop, ep.z)
     for field in ("q_g", "q_t_given_g", "q_t", "action_mean"):
@@ -196,7 +196,7 @@ def test_validation_loss_is_the_training_loss(trained, dataset, reduction):
     assert 0 < float(data.s_t.sum()) < float(data.s_g.sum()) < len(data)
     result = evaluate(model, data, cfg)
     with torch.no_grad():
-        out = model(data.crop, data.z)
+        out = model(data.crop.float(), data.z)
         ref = tognet_loss(out["q_g_logit"], out["q_tg_logit"], model.denormalize_action(out["action_norm"]),
                           data.s_g, data.s_t, data.action, loss_cfg)
     for key in ("loss", "grasp", "task", "action"):

@@ -9,6 +9,10 @@ action that were executed, and the labels the simulator produced. A dataset fold
       shard-00001.npz
       configs/<name>.json    configs saved beside the data (simulator, task, policy, ...)
 
+Crops are stored as float16 (8 KiB a record before compression; its ~3e-5 m step near 3 cm is far below the
+depth noise) in compressed ``.npz`` files; readers hand them out as float16 too (cast to float32 per batch).
+Format version 1 (float32 crops, no ``grasp_source``/``action_source``/``score``) is still read.
+
 Shards are written to a temporary file and renamed, so a crash never leaves a half-written shard under
 its final name. A writer opened on an existing folder appends new shard indices and never overwrites.
 One writer per folder at a time (an advisory lock on ``.writer.lock``, released when the process ends);
@@ -26,6 +30,7 @@ import os
 import re
 import warnings
 import zipfile
+import zlib
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -35,14 +40,16 @@ import numpy as np
 from tognet.errors import TognetError
 
 #: Version of the shard/manifest layout; bump on any incompatible change.
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+#: Versions this code reads (older shards get the new fields' defaults).
+READABLE_VERSIONS = (1, 2)
 CROP_SIZE = 64
 MANIFEST = "manifest.json"
 SHARD_PATTERN = re.compile(r"^shard-(\d{5,})\.npz$")
 
 #: name -> (dtype, per-episode shape). ``object_id`` is a unicode string.
 FIELDS: dict[str, tuple[np.dtype, tuple[int, ...]]] = {
-    "crop": (np.dtype(np.float32), (CROP_SIZE, CROP_SIZE)),
+    "crop": (np.dtype(np.float16), (CROP_SIZE, CROP_SIZE)),
     "z": (np.dtype(np.float32), ()),
     "grasp": (np.dtype(np.float32), (4,)),
     "action": (np.dtype(np.float32), (4,)),
@@ -53,7 +60,15 @@ FIELDS: dict[str, tuple[np.dtype, tuple[int, ...]]] = {
     "object_id": (np.dtype("U"), ()),
     "scene_seed": (np.dtype(np.int64), ()),
     "trial": (np.dtype(np.int32), ()),
+    "grasp_source": (np.dtype(np.int8), ()),
+    "action_source": (np.dtype(np.int8), ()),
+    "score": (np.dtype(np.float32), ()),
 }
+#: int8 codes of where an episode's grasp came from (``grasp_source``) and its action (``action_source``);
+#: stored in every manifest. Collection policies name themselves with these.
+GRASP_SOURCES: dict[str, int] = {"unknown": 0, "nms": 1, "cem": 2, "given": 3}
+ACTION_SOURCES: dict[str, int] = {"unknown": 0, "uniform": 1, "baseline_random": 2, "policy": 3, "given": 4,
+                                  "none": 5}
 #: int8 code of each failure reason (the names of ``tognet.tasks.FailureReason``); stored in every
 #: manifest so a dataset explains its own codes. ``failure`` may also be given as these names.
 FAILURE_CODES: dict[str, int] = {
@@ -79,7 +94,8 @@ def failure_code(reason: object) -> int:
 
 
 #: Fields a caller may leave out of :meth:`ShardWriter.add`, with their default value.
-DEFAULTS: dict[str, Any] = {"valid": 1, "failure": 0, "trial": 0}
+DEFAULTS: dict[str, Any] = {"valid": 1, "failure": 0, "trial": 0, "grasp_source": 0, "action_source": 0,
+                            "score": -1.0}
 
 
 class DatasetError(TognetError):
@@ -101,6 +117,15 @@ class EpisodeArrays:
     object_id: np.ndarray
     scene_seed: np.ndarray
     trial: np.ndarray
+    grasp_source: np.ndarray = None  # type: ignore[assignment]  (None: the default for every episode)
+    action_source: np.ndarray = None  # type: ignore[assignment]
+    score: np.ndarray = None  # type: ignore[assignment]
+
+    def __post_init__(self) -> None:
+        n = int(np.asarray(self.z).shape[0])
+        for name in ("grasp_source", "action_source", "score"):
+            if getattr(self, name) is None:
+                setattr(self, name, np.full((n,), DEFAULTS[name], dtype=FIELDS[name][0]))
 
     def __len__(self) -> int:
         return int(self.z.shape[0])
@@ -198,9 +223,88 @@ def _read_manifest(folder: Path) -> dict[str, Any] | None:
     if not isinstance(manifest, dict) or "shards" not in manifest:
         raise DatasetError(f"{path}: not a tognet episode manifest (no 'shards')")
     version = manifest.get("format_version")
-    if version != FORMAT_VERSION:
-        raise DatasetError(f"{path}: format_version {version!r}, this tognet reads {FORMAT_VERSION}")
+    if version not in READABLE_VERSIONS:
+        raise DatasetError(f"{path}: format_version {version!r}, this tognet reads {list(READABLE_VERSIONS)}")
     return manifest
+
+
+def manifest_totals(shards: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """Counts, rates and failure tallies summed over a manifest's shard entries."""
+    totals: dict[str, Any] = {"shards": len(shards), "episodes": sum(s["count"] for s in shards)}
+    for key in ("valid", "grasp_success", "task_success"):
+        totals[key] = sum(s[key] for s in shards)
+    totals["grasp_success_rate"] = totals["grasp_success"] / totals["valid"] if totals["valid"] else None
+    totals["task_success_rate"] = totals["task_success"] / totals["valid"] if totals["valid"] else None
+    totals["task_given_grasp_rate"] = (
+        totals["task_success"] / totals["grasp_success"] if totals["grasp_success"] else None
+    )
+    failures: dict[str, int] = {}
+    for s in shards:
+        for code, k in s.get("failures", {}).items():
+            failures[code] = failures.get(code, 0) + k
+    totals["failures"] = failures
+    return totals
+
+
+def new_manifest(task: str) -> dict[str, Any]:
+    """An empty manifest for a dataset folder of ``task``."""
+    return {"format_version": FORMAT_VERSION, "task": task, "failure_codes": FAILURE_CODES,
+            "grasp_sources": GRASP_SOURCES, "action_sources": ACTION_SOURCES, "shards": [], "configs": []}
+
+
+def write_manifest(folder: Path, manifest: dict[str, Any]) -> None:
+    """Recompute the manifest's totals and write it atomically (a reader never sees half a manifest)."""
+    manifest["format_version"] = FORMAT_VERSION
+    manifest["totals"] = manifest_totals(manifest["shards"])
+    data = json.dumps(manifest, indent=2) + "\n"
+    _atomic_write_bytes(Path(folder) / MANIFEST, data.encode())
+
+
+def check_columns(columns: Mapping[str, Any]) -> dict[str, np.ndarray]:
+    """Episode columns in their declared dtypes, defaults filled in; ValueError names a bad field."""
+    unknown = sorted(set(columns) - set(FIELDS))
+    if unknown:
+        raise ValueError(f"unknown episode field(s) {unknown}; known: {list(FIELDS)}")
+    if "z" not in columns:
+        raise ValueError("missing episode field 'z'")
+    n = int(np.asarray(columns["z"]).shape[0])
+    checked: dict[str, np.ndarray] = {}
+    for name in FIELDS:
+        if name in columns:
+            checked[name] = _check_column(name, columns[name], n)
+        elif name in DEFAULTS:
+            checked[name] = np.full((n,), DEFAULTS[name], dtype=FIELDS[name][0])
+        else:
+            raise ValueError(f"missing episode field '{name}'")
+    return checked
+
+
+def write_shard(path: Path, columns: Mapping[str, np.ndarray], meta: Mapping[str, Any]) -> dict[str, Any]:
+    """Write checked episode columns as one compressed shard, atomically (temporary file, fsync, rename);
+    returns its manifest entry (file, count, sha256, meta, label tallies). Refuses to overwrite."""
+    path = Path(path)
+    if path.exists():
+        raise DatasetError(f"{path}: already exists, refusing to overwrite")
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        with open(tmp, "wb") as fh:
+            np.savez_compressed(fh, meta_json=np.array(json.dumps(dict(meta))),
+                                format_version=np.array(FORMAT_VERSION), **columns)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    count = int(np.asarray(columns["z"]).shape[0])
+    return {
+        "file": path.name,
+        "count": count,
+        "sha256": _sha256(path),
+        "meta": dict(meta),
+        **{k: v for k, v in _summarise(columns["valid"], columns["grasp_success"], columns["task_success"],
+                                        columns["failure"]).items() if k != "episodes"},
+    }
 
 
 class ShardWriter:
@@ -255,8 +359,7 @@ class ShardWriter:
         task = self.task
         manifest = _read_manifest(self.out_dir)
         if manifest is None:
-            manifest = {"format_version": FORMAT_VERSION, "task": task, "failure_codes": FAILURE_CODES,
-                        "shards": [], "configs": []}
+            manifest = new_manifest(task)
         elif manifest.get("task") != task:
             raise DatasetError(
                 f"{self.out_dir / MANIFEST}: holds task {manifest.get('task')!r}, refusing to add {task!r}"
@@ -279,20 +382,8 @@ class ShardWriter:
         """Add N episodes given as column arrays with a leading dimension N."""
         if self._closed:
             raise DatasetError(f"{self.out_dir}: writer already closed")
-        unknown = sorted(set(columns) - set(FIELDS))
-        if unknown:
-            raise ValueError(f"unknown episode field(s) {unknown}; known: {list(FIELDS)}")
-        n = int(np.asarray(columns["z"]).shape[0]) if "z" in columns else None
-        if n is None:
-            raise ValueError("missing episode field 'z'")
-        checked: dict[str, np.ndarray] = {}
-        for name in FIELDS:
-            if name in columns:
-                checked[name] = _check_column(name, columns[name], n)
-            elif name in DEFAULTS:
-                checked[name] = np.full((n,), DEFAULTS[name], dtype=FIELDS[name][0])
-            else:
-                raise ValueError(f"missing episode field '{name}'")
+        checked = check_columns(columns)
+        n = int(checked["z"].shape[0])
         for name, arr in checked.items():
             self._buffer[name].append(arr)
         self._buffered += n
@@ -305,48 +396,15 @@ class ShardWriter:
         head = {name: arr[:count] for name, arr in columns.items()}
         self._buffer = {name: [arr[count:]] for name, arr in columns.items()}
         self._buffered -= count
-        name = f"shard-{self._next_index:05d}.npz"
-        path = self.out_dir / name
-        if path.exists():
-            raise DatasetError(f"{path}: already exists, refusing to overwrite")
-        tmp = path.with_name(f".{name}.tmp-{os.getpid()}")
-        with open(tmp, "wb") as fh:
-            np.savez(fh, meta_json=np.array(json.dumps(self.meta)), format_version=np.array(FORMAT_VERSION),
-                     **head)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
+        path = self.out_dir / f"shard-{self._next_index:05d}.npz"
+        entry = write_shard(path, head, self.meta)
         self._next_index += 1
         self.written.append(path)
-        entry = {
-            "file": name,
-            "count": int(count),
-            "sha256": _sha256(path),
-            "meta": self.meta,
-            **{k: v for k, v in _summarise(head["valid"], head["grasp_success"], head["task_success"],
-                                            head["failure"]).items() if k != "episodes"},
-        }
         self._manifest["shards"].append(entry)
         self._write_manifest()
 
     def _write_manifest(self) -> None:
-        shards = self._manifest["shards"]
-        totals: dict[str, Any] = {"shards": len(shards), "episodes": sum(s["count"] for s in shards)}
-        for key in ("valid", "grasp_success", "task_success"):
-            totals[key] = sum(s[key] for s in shards)
-        totals["grasp_success_rate"] = totals["grasp_success"] / totals["valid"] if totals["valid"] else None
-        totals["task_success_rate"] = totals["task_success"] / totals["valid"] if totals["valid"] else None
-        totals["task_given_grasp_rate"] = (
-            totals["task_success"] / totals["grasp_success"] if totals["grasp_success"] else None
-        )
-        failures: dict[str, int] = {}
-        for s in shards:
-            for code, k in s.get("failures", {}).items():
-                failures[code] = failures.get(code, 0) + k
-        totals["failures"] = failures
-        self._manifest["totals"] = totals
-        data = json.dumps(self._manifest, indent=2) + "\n"
-        _atomic_write_bytes(self.out_dir / MANIFEST, data.encode())
+        write_manifest(self.out_dir, self._manifest)
 
     def _save_config(self, name: str, cfg: Any) -> None:
         if hasattr(cfg, "to_dict"):
@@ -390,29 +448,43 @@ class ShardWriter:
 # -- reading ------------------------------------------------------------------------------------------
 def read_shard(path: str | Path) -> tuple[EpisodeArrays, dict[str, Any]]:
     """One shard's episodes (all of them, valid or not) and its metadata; DatasetError names the file."""
+    columns, meta = read_columns(path, tuple(FIELDS))
+    return EpisodeArrays(**columns), meta
+
+
+def read_columns(path: str | Path, fields: Sequence[str]) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """Some columns of one shard (checked, converted to their declared dtypes) and its metadata. Reading
+    only small columns (``object_id``, labels) skips decompressing the crops."""
     path = Path(path)
+    unknown = [f for f in fields if f not in FIELDS]
+    if unknown:
+        raise ValueError(f"unknown episode field(s) {unknown}; known: {list(FIELDS)}")
     if not path.is_file():
         raise DatasetError(f"{path}: shard file not found")
     try:
         with np.load(path, allow_pickle=False) as npz:
-            missing = [name for name in (*FIELDS, "meta_json") if name not in npz.files]
+            version = int(npz["format_version"]) if "format_version" in npz.files else None
+            if version not in READABLE_VERSIONS:
+                raise DatasetError(f"{path}: shard format_version {version!r}, this tognet reads "
+                                   f"{list(READABLE_VERSIONS)}")
+            required = [f for f in FIELDS if f not in DEFAULTS or version == FORMAT_VERSION]
+            missing = [name for name in (*required, "meta_json") if name not in npz.files]
             if missing:
                 raise DatasetError(f"{path}: not a tognet episode shard (missing {missing})")
-            columns = {name: npz[name] for name in FIELDS}
+            n = int(npz["z"].shape[0])
+            columns = {name: npz[name] if name in npz.files else np.full((n,), DEFAULTS[name])
+                       for name in fields}
             meta = json.loads(str(npz["meta_json"]))
-            version = int(npz["format_version"]) if "format_version" in npz.files else None
     except DatasetError:
         raise
-    except (zipfile.BadZipFile, EOFError, OSError, ValueError, KeyError, zipfile.LargeZipFile) as exc:
+    except (zipfile.BadZipFile, EOFError, OSError, ValueError, KeyError, zipfile.LargeZipFile,
+            zlib.error, json.JSONDecodeError) as exc:
         raise DatasetError(f"{path}: corrupt or truncated shard ({type(exc).__name__}: {exc})") from exc
-    if version != FORMAT_VERSION:
-        raise DatasetError(f"{path}: shard format_version {version!r}, this tognet reads {FORMAT_VERSION}")
-    n = columns["z"].shape[0]
     try:
         checked = {name: _check_column(name, arr, n) for name, arr in columns.items()}
     except ValueError as exc:
         raise DatasetError(f"{path}: {exc}") from exc
-    return EpisodeArrays(**checked), meta
+    return checked, meta
 
 
 def shard_paths(folder: str | Path) -> list[Path]:

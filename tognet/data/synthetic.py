@@ -60,7 +60,7 @@ def synthetic_episodes(
     action = action_rule(left, right) + rng.normal(0.0, 0.001, size=(n, 4)).astype(np.float32)
     valid = (rng.random(n) >= invalid).astype(np.uint8)
     return EpisodeArrays(
-        crop=crops.astype(np.float32),
+        crop=crops.astype(np.float16),
         z=rng.uniform(0.6, 1.0, size=n).astype(np.float32),
         grasp=rng.normal(0.0, 0.1, size=(n, 4)).astype(np.float32),
         action=action,

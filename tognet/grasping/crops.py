@@ -37,8 +37,10 @@ class CropConfig(Config):
 
     size: int = doc(64, "Crop side in pixels (the task/action streams' input).")
     extent: float = doc(
-        0.384,
-        "Crop side in metres: the 64 px crop covers 0.384 m (6 mm per pixel), its 32 px centre 0.192 m.",
+        0.6,
+        "Crop side in metres: the 64 px crop covers 0.6 m (9.4 mm per pixel), its 32 px centre 0.3 m. Wide "
+        "enough that the whole tool lies inside the crop from nearly every grasp (a far-end grasp must see "
+        "the head it strikes with; benchmarks/crop_coverage.py, RESULTS.md).",
     )
     center_size: int = doc(32, "Side of the centre crop (the grasp-quality stream's input).")
     table_z: float = doc(0.0, "World height (m) read for grid points that fall outside the image.")
