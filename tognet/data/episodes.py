@@ -260,6 +260,30 @@ def write_manifest(folder: Path, manifest: dict[str, Any]) -> None:
     _atomic_write_bytes(Path(folder) / MANIFEST, data.encode())
 
 
+def save_config(folder: Path, manifest: dict[str, Any], name: str, cfg: Any, meta: Mapping[str, Any]) -> None:
+    """Save a config (a :class:`tognet.config.Config` or a dict) as ``configs/<name>.json`` beside the data
+    and list it in ``manifest`` (not written here); a name already used with different content gets a
+    numbered suffix, never an overwrite."""
+    if hasattr(cfg, "to_dict"):
+        payload = {"config_type": type(cfg).__name__, **cfg.to_dict()}
+    elif isinstance(cfg, Mapping):
+        payload = dict(cfg)
+    else:
+        raise ValueError(f"config '{name}': expected a Config or a dict, got {type(cfg).__name__}")
+    text = json.dumps(payload, indent=2) + "\n"
+    configs = Path(folder) / "configs"
+    configs.mkdir(exist_ok=True)
+    stem, k = name, 1
+    while (configs / f"{stem}.json").exists():
+        if (configs / f"{stem}.json").read_text() == text:
+            return
+        k += 1
+        stem = f"{name}-{k}"
+    _atomic_write_bytes(configs / f"{stem}.json", text.encode())
+    entry = {"file": f"configs/{stem}.json", "name": name, "meta": dict(meta)}
+    manifest.setdefault("configs", []).append(entry)
+
+
 def check_columns(columns: Mapping[str, Any]) -> dict[str, np.ndarray]:
     """Episode columns in their declared dtypes, defaults filled in; ValueError names a bad field."""
     unknown = sorted(set(columns) - set(FIELDS))
@@ -407,25 +431,7 @@ class ShardWriter:
         write_manifest(self.out_dir, self._manifest)
 
     def _save_config(self, name: str, cfg: Any) -> None:
-        if hasattr(cfg, "to_dict"):
-            payload = {"config_type": type(cfg).__name__, **cfg.to_dict()}
-        elif isinstance(cfg, Mapping):
-            payload = dict(cfg)
-        else:
-            raise ValueError(f"config '{name}': expected a Config or a dict, got {type(cfg).__name__}")
-        text = json.dumps(payload, indent=2) + "\n"
-        folder = self.out_dir / "configs"
-        folder.mkdir(exist_ok=True)
-        stem, k = name, 1
-        while (folder / f"{stem}.json").exists():
-            if (folder / f"{stem}.json").read_text() == text:
-                return
-            k += 1
-            stem = f"{name}-{k}"
-        _atomic_write_bytes(folder / f"{stem}.json", text.encode())
-        self._manifest.setdefault("configs", []).append(
-            {"file": f"configs/{stem}.json", "name": name, "meta": self.meta}
-        )
+        save_config(self.out_dir, self._manifest, name, cfg, self.meta)
 
     def close(self) -> list[Path]:
         """Write the remaining buffered episodes as a last (smaller) shard; returns all shards written."""

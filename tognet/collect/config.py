@@ -1,0 +1,147 @@
+"""Configs of self-supervised collection and of the whole pipeline (presets are files of these).
+
+A preset (``tognet/collect/presets/{ci,quick,paper}.json``) is a :class:`PipelineConfig`: how many
+objects, how many trials in each round, how the policies explore and how long each round trains. Every
+collection saves its :class:`CollectConfig` (and the simulator, task, crop and policy configs inside it)
+beside its data.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Literal
+
+from tognet.config import Config, ConfigError, doc
+from tognet.grasping.antipodal import AntipodalConfig
+from tognet.grasping.cem import CEMConfig
+from tognet.grasping.crops import CropConfig
+from tognet.grasping.nms import NMSConfig
+from tognet.model.config import TrainConfig
+from tognet.sim.config import SimConfig
+
+#: Names of the grasp and action policies a round can use.
+RoundPolicy = Literal["nms_uniform", "epsilon_greedy"]
+
+
+@dataclass(frozen=True)
+class PolicyConfig(Config):
+    """How collection picks grasps and actions (the paper's exploration)."""
+
+    epsilon_grasp: float = doc(
+        0.2, "epsilon_1: probability of an NMS grasp instead of the model's CEM grasp (rounds 2+; paper 0.2)."
+    )
+    epsilon_action: float = doc(
+        0.2,
+        "epsilon_2: probability of a uniformly random action instead of the policy's (rounds 2+; paper 0.2).",
+    )
+    action_noise: tuple[float, float, float, float] = doc(
+        (0.02, 0.02, 0.01, 0.06),
+        "Std-dev of the Gaussian policy's constant diagonal Sigma^(1/2) (a_x, a_y, a_z m; a_phi rad): the "
+        "policy's action is the network's mean plus this noise, clipped to the task's action box. Smaller "
+        "than the box (about a third of the random baseline's +-5 cm, +-pi/20 spread) so that greedy trials "
+        "stay near what worked, large enough to keep exploring.",
+    )
+    max_modes: int = doc(30, "NMS modes kept per scene at most (the paper's 10-30 distinct modes).")
+    nms: NMSConfig = doc(factory=NMSConfig, text="Suppression radius of the exploration grasps.")
+    cem: CEMConfig = doc(factory=CEMConfig, text="The cross-entropy method on the model's Q_T (rounds 2+).")
+
+
+@dataclass(frozen=True)
+class CollectConfig(Config):
+    """One collection round's fixed settings (everything but the models and the number of trials)."""
+
+    trials_per_scene: int = doc(
+        8,
+        "Trials run from one settled scene (state save/restore): a scene (drop, settle, depth image, "
+        "candidates, model scores) costs about as much as one trial, so several trials share it.",
+    )
+    scenes_per_job: int = doc(
+        4,
+        "Scenes in one job (one object, one shard). A job is the unit of work, of resumption and of loss "
+        "when a worker dies: small enough to lose little, large enough that a shard is not tiny.",
+    )
+    seed: int = doc(0, "Root seed: every scene and trial seed derives from (seed, task, round, job, scene).")
+    sim: SimConfig = doc(factory=SimConfig, text="The simulated world and both tasks' set-ups.")
+    antipodal: AntipodalConfig = doc(
+        factory=lambda: AntipodalConfig(axis_direction="both"),
+        text="Antipodal candidates; both jaw orientations, so a task scorer can choose which way round.",
+    )
+    crop: CropConfig = doc(factory=CropConfig, text="The network's crops (saved with the data).")
+    policy: PolicyConfig = doc(factory=PolicyConfig, text="Exploration and the Gaussian policy.")
+
+    def fingerprint(self) -> str:
+        """A short hash of the config (stored with every shard, to refuse mixing settings on resume)."""
+        text = json.dumps(self.to_dict(), sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+@dataclass(frozen=True)
+class RoundConfig(Config):
+    """One round: how many trials, which policy, how long to train afterwards."""
+
+    episodes: int = doc(1000, "Trials to run (rounded up to whole jobs).")
+    policy: RoundPolicy = doc(
+        "nms_uniform",
+        "'nms_uniform': NMS modes of the candidates ranked by grasp quality, uniform actions over the "
+        "task's box (round 1); 'epsilon_greedy': CEM on the last model's Q_T and its action mean plus "
+        "noise, with epsilon exploration (rounds 2+).",
+    )
+    epochs: int = doc(10, "Training epochs after the round (on all data so far, warm-started).")
+
+
+@dataclass(frozen=True)
+class PipelineConfig(Config):
+    """A whole self-supervision run: objects, the grasp-only round, the task rounds and training."""
+
+    name: str = doc("custom", "Preset name (ci, quick, paper, or your own).")
+    objects: dict[str, int] = doc(
+        factory=lambda: {"primitive": 20, "complex": 0},
+        text="Training objects per kind (PG-Primitive, PG-Complex), generated into the run folder.",
+    )
+    grasp_round: RoundConfig = doc(
+        factory=lambda: RoundConfig(episodes=1000, policy="nms_uniform", epochs=5),
+        text="The grasp-only round (no primitive) that trains the task-agnostic Q_G model, our stand-in for "
+        "the paper's GQ-CNN trained on Dex-Net data: round 1 ranks its candidates with it.",
+    )
+    rounds: tuple[RoundConfig, ...] = doc(
+        (RoundConfig(policy="nms_uniform"), RoundConfig(policy="epsilon_greedy"),
+         RoundConfig(policy="epsilon_greedy")),
+        "The task rounds (the paper: 3 rounds of 500K trials; round 1 explores, then epsilon-greedy ones).",
+    )
+    task_rounds: dict[str, tuple[RoundConfig, ...]] = doc(
+        factory=dict,
+        text="Per-task replacement of ``rounds`` (e.g. more round-1 trials for hammering, whose random "
+        "trials succeed ~40x less often than sweeping's).",
+    )
+    collect: CollectConfig = doc(factory=CollectConfig, text="Collection settings shared by every round.")
+    train: TrainConfig = doc(
+        factory=TrainConfig, text="Training settings (its epochs are replaced by each round's)."
+    )
+    object_workers: int | None = doc(
+        None, "Processes generating objects (None: the collection's worker count)."
+    )
+
+
+    def rounds_for(self, task: str) -> tuple[RoundConfig, ...]:
+        """The rounds of ``task``."""
+        return self.task_rounds.get(task, self.rounds)
+
+
+PRESETS = ("ci", "quick", "paper")
+
+
+def load_preset(name_or_path: str | Path) -> PipelineConfig:
+    """A preset by name (ci, quick, paper: files shipped in tognet/collect/presets) or a JSON file path."""
+    text = str(name_or_path)
+    if text in PRESETS:
+        ref = resources.files("tognet.collect").joinpath("presets", f"{text}.json")
+        with resources.as_file(ref) as path:
+            return PipelineConfig.load(path)
+    path = Path(text)
+    if not path.is_file():
+        raise ConfigError(f"unknown preset {text!r}: use one of {', '.join(PRESETS)} or a JSON file's path")
+    return PipelineConfig.load(path)

@@ -1,0 +1,208 @@
+"""The unit of collection work: a job is one object, a few scenes, several trials per scene.
+
+:func:`run_job` runs in a worker (a local process or a Ray task) and returns the job's episode records as
+columns; the coordinator writes them as one shard named after the job. Everything in a job derives from
+its seed, so a job rerun (after a worker died or the run was killed) gives the same records, and so does
+running it on another kind of worker.
+
+The glue from a simulator trial to a dataset record lives here once (:func:`trial_records`): crops and z
+of the executed grasp, the grasp and action as executed (rounded to float32 first, so that a stored
+record replays exactly: ``Simulator(cfg.sim, task, obj).reset(scene_seed)`` then
+``execute(grasp, action, seed=trial)``), labels, failure reason, object id, scene seed, trial index,
+policy sources and the score the policy chose by; the collection config's hash is in the shard's meta.
+"""
+
+from __future__ import annotations
+
+import time
+import traceback
+import zlib
+from collections import Counter
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tognet.collect.config import CollectConfig, RoundPolicy
+from tognet.collect.policies import (
+    CEMGrasp,
+    NMSGrasps,
+    NoActions,
+    PolicyActions,
+    SceneView,
+    UniformActions,
+    check_predictor_crops,
+    epsilon_mix,
+)
+from tognet.objects.record import ObjectRecord
+
+#: The grasp-only task (no primitive): trains the task-agnostic Q_G model.
+GRASP_ONLY = "grasping"
+
+
+@dataclass(frozen=True)
+class Job:
+    """One job: which object, which seeds, which policy and models."""
+
+    task: str
+    round: int
+    index: int
+    obj: ObjectRecord
+    policy: RoundPolicy
+    config: CollectConfig
+    grasp_model: str | None = None
+    task_model: str | None = None
+
+    @property
+    def planned(self) -> int:
+        """Trials the job runs when every scene has candidates."""
+        return self.config.scenes_per_job * self.config.trials_per_scene
+
+    def seed(self, *more: int) -> list[int]:
+        """The job's seed sequence entropy, extended by ``more``."""
+        return [self.config.seed, zlib.crc32(self.task.encode()), self.round, self.index, *more]
+
+    def scene_seed(self, scene: int) -> int:
+        """The simulator seed of the job's ``scene``-th scene (a 32-bit unsigned integer)."""
+        return int(np.random.SeedSequence(self.seed(scene, 1)).generate_state(1)[0])
+
+
+@dataclass
+class JobOutput:
+    """What a job sends back: its records (columns, possibly empty), counters and any error."""
+
+    job: int
+    columns: dict[str, NDArray[Any]]
+    stats: dict[str, Any] = field(default_factory=dict)
+    error: str | None = None
+
+
+_MODELS: dict[str, Any] = {}
+
+
+def load_model(path: str) -> Any:
+    """A predictor for ``path``, loaded once per worker process."""
+    if path not in _MODELS:
+        from tognet.model.predict import TOGNetPredictor
+
+        _MODELS[path] = TOGNetPredictor.load(path)
+    return _MODELS[path]
+
+
+def plan_jobs(task: str, round_index: int, objects: list[ObjectRecord], episodes: int, policy: RoundPolicy,
+              config: CollectConfig, grasp_model: str | None = None, task_model: str | None = None
+              ) -> list[Job]:
+    """The jobs of one round: enough for ``episodes`` trials, objects visited in a seeded order (each
+    round its own), cycling through all of them."""
+    if not objects:
+        raise ValueError("no objects to collect on")
+    per_job = config.scenes_per_job * config.trials_per_scene
+    n_jobs = max(1, -(-episodes // per_job))
+    rng = np.random.default_rng([config.seed, zlib.crc32(task.encode()), round_index, 7])
+    order = np.concatenate([rng.permutation(len(objects)) for _ in range(-(-n_jobs // len(objects)))])
+    return [Job(task, round_index, j, objects[int(order[j])], policy, config, grasp_model, task_model)
+            for j in range(n_jobs)]
+
+
+def trial_records(view: SceneView, grasps: NDArray[np.float64], actions: NDArray[np.float64],
+                  results: list[Any], grasp_source: NDArray[np.int8], action_source: NDArray[np.int8],
+                  score: NDArray[np.float32], object_id: str, scene_seed: int,
+                  trials: NDArray[np.int64]) -> dict[str, NDArray[Any]]:
+    """Episode columns for executed trials of one scene (``results``: the simulator's TrialResults)."""
+    crops, z = view.crops(grasps)
+    n = len(results)
+    return {
+        "crop": crops.astype(np.float16),
+        "z": z,
+        "grasp": grasps.astype(np.float32),
+        "action": actions.astype(np.float32),
+        "grasp_success": np.array([r.grasp_success for r in results], dtype=np.uint8),
+        "task_success": np.array([r.task_success for r in results], dtype=np.uint8),
+        "valid": np.array([r.valid for r in results], dtype=np.uint8),
+        "failure": np.array([r.failure.value for r in results]),
+        "object_id": np.full(n, object_id),
+        "scene_seed": np.full(n, scene_seed, dtype=np.int64),
+        "trial": trials.astype(np.int32),
+        "grasp_source": grasp_source,
+        "action_source": action_source,
+        "score": score.astype(np.float32),
+    }
+
+
+def run_job(job: Job) -> JobOutput:
+    """Run one job (in a worker): every scene and trial, labels from the simulator. Never raises for a bad
+    object or scene: a job whose object cannot be simulated returns no records and the error."""
+    try:
+        return _run_job(job)
+    except Exception as exc:  # one bad object must never end a round
+        detail = traceback.format_exception_only(type(exc), exc)[-1].strip()
+        return JobOutput(job.index, {}, {"object": job.obj.object_id}, error=f"{job.obj.object_id}: {detail}")
+
+
+def _run_job(job: Job) -> JobOutput:
+    from tognet.geometry import Grasp
+    from tognet.grasping.antipodal import sample_antipodal
+    from tognet.grasping.depth import prepare_depth
+    from tognet.sim import SimulationError, Simulator
+
+    cfg = job.config
+    t0 = time.perf_counter()
+    grasp_model = load_model(job.grasp_model) if job.grasp_model else None
+    task_model = load_model(job.task_model) if job.task_model else None
+    for model, what in ((grasp_model, job.grasp_model), (task_model, job.task_model)):
+        if model is not None:
+            check_predictor_crops(model, cfg.crop, str(what))
+    if job.policy == "epsilon_greedy" and task_model is None:
+        raise ValueError("an epsilon-greedy round needs the last round's task model")
+    sim = Simulator(cfg.sim, job.task, job.obj)
+    nms_grasps = NMSGrasps(cfg.policy, grasp_model)
+    cem_grasp = CEMGrasp(cfg.policy, task_model) if task_model is not None else None
+    explore_actions = NoActions() if job.task == GRASP_ONLY else UniformActions()
+    policy_actions = PolicyActions(task_model, cfg.policy.action_noise) if task_model is not None else None
+    parts: list[dict[str, NDArray[Any]]] = []
+    stats: Counter[str] = Counter()
+    trials = cfg.trials_per_scene
+    for s in range(cfg.scenes_per_job):
+        scene_seed = job.scene_seed(s)
+        try:
+            obs = sim.reset(scene_seed)
+        except SimulationError as exc:
+            stats["bad_scenes"] += 1
+            stats[f"bad_scene: {exc}"[:200]] += 1
+            continue
+        rng = np.random.default_rng(job.seed(s, 2))
+        scene = prepare_depth(obs.depth, obs.camera)
+        cands = sample_antipodal(scene, None, cfg.antipodal, rng)
+        if len(cands) == 0:
+            stats["scenes_without_candidates"] += 1
+            continue
+        view = SceneView(scene, cands, sim.task, cfg.crop)
+        pick = nms_grasps(view, trials, rng)
+        if job.policy == "epsilon_greedy":
+            assert cem_grasp is not None and policy_actions is not None
+            explore = rng.random(trials) < cfg.policy.epsilon_grasp
+            pick = epsilon_mix(cem_grasp(view, trials, rng), pick, explore)
+        grasps = pick.grasps.astype(np.float32).astype(np.float64)  # as stored, so records replay exactly
+        acts = explore_actions(view, grasps, rng)
+        if job.policy == "epsilon_greedy":
+            assert policy_actions is not None
+            random_action = rng.random(trials) < cfg.policy.epsilon_action
+            acts = epsilon_mix(policy_actions(view, grasps, rng), acts, random_action)
+        actions = acts.actions.astype(np.float32).astype(np.float64)
+        results, kept = [], []
+        for t in range(trials):
+            try:
+                results.append(sim.execute(Grasp.from_array(grasps[t]), None if job.task == GRASP_ONLY
+                                           else actions[t], seed=t))
+                kept.append(t)
+            except ValueError:  # a grasp or start pose out of the gripper's reach: not a trial
+                stats["unreachable"] += 1
+        if not kept:
+            continue
+        k = np.asarray(kept)
+        parts.append(trial_records(view, grasps[k], actions[k], results, pick.source[k], acts.source[k],
+                                   pick.score[k], job.obj.object_id, scene_seed, k))
+    stats["seconds"] = time.perf_counter() - t0  # type: ignore[assignment]
+    columns = {name: np.concatenate([p[name] for p in parts]) for name in parts[0]} if parts else {}
+    return JobOutput(job.index, columns, dict(stats))

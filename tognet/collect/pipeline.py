@@ -1,0 +1,211 @@
+"""The self-supervision loop end to end: objects, the grasp-only round, then per task the rounds of
+collection, each followed by training on all data so far (warm-started from the last model).
+
+    OUT/
+      preset.json                      the PipelineConfig of the run (a resume must use the same)
+      objects/primitive-train/ ...     the generated training objects
+      grasping/round0/data, model/     the grasp-only round and the task-agnostic Q_G model
+      <task>/round<k>/data, model/     each round's episodes and the model trained after it
+      summary.json, summary.md         per task and round: episodes, S_G, S_T, positives, held-out metrics
+
+Every stage leaves a marker when it is complete (a round's ``summary.json``, a model's ``done.json``); a
+run started again with ``resume=True`` skips what is complete and resumes what is not (collection at the
+first missing job, training from its ``last.pt``).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+from tognet.collect.config import PipelineConfig, RoundConfig
+from tognet.collect.jobs import GRASP_ONLY
+from tognet.collect.rounds import SUMMARY, collect_round
+from tognet.collect.workers import Executor, make_executor
+from tognet.errors import TognetError
+from tognet.objects.record import ObjectRecord
+
+DONE = "done.json"
+
+
+class PipelineError(TognetError):
+    """The pipeline cannot start or continue (a run folder of another preset, nothing to resume...)."""
+
+
+def _check_out(out: Path, preset: PipelineConfig, resume: bool) -> None:
+    saved = out / "preset.json"
+    if out.exists() and not out.is_dir():
+        raise PipelineError(f"{out}: exists and is not a folder; pass another --out")
+    if saved.is_file():
+        if not resume:
+            raise PipelineError(f"{out}: already holds a pipeline run; pass --resume to continue it or "
+                                "another --out")
+        old = PipelineConfig.load(saved)
+        if old != preset:
+            a, b = old.to_dict(), preset.to_dict()
+            diff = sorted(k for k in a if a[k] != b.get(k))
+            raise PipelineError(f"{saved}: the run was started with another preset (differs in {diff}); "
+                                "resume with the same preset or use another --out")
+    elif resume and out.is_dir() and any(out.iterdir()):
+        raise PipelineError(f"{out}: no preset.json, so not a pipeline run to resume")
+    out.mkdir(parents=True, exist_ok=True)
+    preset.save(saved)
+
+
+def make_objects(preset: PipelineConfig, out: Path, workers: int, log: Callable[[str], None],
+                 progress: bool) -> list[ObjectRecord]:
+    """The run's training objects (generated once; a resumed run loads them)."""
+    from tognet.objects.generate import generate_set
+    from tognet.objects.record import load_catalog
+
+    records: list[ObjectRecord] = []
+    for kind, count in preset.objects.items():
+        if count <= 0:
+            continue
+        folder = out / "objects" / f"{kind}-train"
+        have = load_catalog(folder) if (folder / "catalog.json").is_file() else []
+        if len(have) < count:
+            log(f"generating {count - len(have)} {kind} training objects into {folder}")
+            generate_set(kind, "train", count - len(have), folder, start=len(have), progress=progress,
+                         workers=max(1, preset.object_workers or workers))
+            have = load_catalog(folder)
+        records.extend(sorted(have, key=lambda r: r.object_id)[:count])
+    if not records:
+        raise PipelineError("the preset asks for no objects")
+    return records
+
+
+def train_round(data_dirs: Sequence[Path], task: str, out: Path, preset: PipelineConfig, epochs: int,
+                init_from: Path | None, log: Callable[[str], None], progress: bool) -> dict[str, Any]:
+    """Train (or resume training) one round's model; returns its done-marker content."""
+    from tognet.model.train import train
+
+    marker = out / DONE
+    if marker.is_file():
+        return json.loads(marker.read_text())
+    config = preset.train.replace(epochs=epochs)
+    resume = (out / "last.pt").is_file()
+    t0 = time.perf_counter()
+    import inspect  # TEMPORARY until train() has init_from
+
+    extra = {"init_from": init_from} if "init_from" in inspect.signature(train).parameters else {}
+    result = train(list(data_dirs), task, out, config, resume=resume, progress=progress, log=log, **extra)
+    best_val = result.best.get("val") or {}
+    done = {"best": str(result.best_path), "epochs_run": result.epochs_run,
+            "best_epoch": result.best.get("epoch"), "seconds": time.perf_counter() - t0,
+            "init_from": str(init_from) if init_from else None,
+            "val": {k: best_val.get(k) for k in ("count", "loss", "grasp", "task", "action", "metrics")}}
+    marker.write_text(json.dumps(done, indent=2, default=str) + "\n")
+    return done
+
+
+def run_pipeline(
+    preset: PipelineConfig,
+    tasks: Sequence[str],
+    out: str | Path,
+    *,
+    workers: int | None = None,
+    ray: bool = False,
+    ray_address: str | None = None,
+    resume: bool = False,
+    progress: bool = True,
+    log: Callable[[str], None] = print,
+) -> dict[str, Any]:
+    """Run (or resume) the whole loop for ``tasks``; returns the summary (also OUT/summary.json)."""
+    from tognet.tasks import TASK_NAMES
+
+    unknown = [t for t in tasks if t not in TASK_NAMES]
+    if unknown or not tasks:
+        raise PipelineError(f"unknown task(s) {unknown}; known: {', '.join(TASK_NAMES)}")
+    if not all(preset.rounds_for(t) for t in tasks):
+        raise PipelineError("the preset has no rounds")
+    out = Path(out)
+    _check_out(out, preset, resume)
+    executor: Executor = make_executor(workers, ray, ray_address)
+    summary: dict[str, Any] = {"preset": preset.name, "tasks": {}, "grasping": None}
+    try:
+        objects = make_objects(preset, out, executor.workers, log, progress)
+        # The grasp-only round and the task-agnostic model.
+        g_dir = out / GRASP_ONLY
+        g_round = _collect(GRASP_ONLY, 0, objects, preset.grasp_round, preset, g_dir / "round0" / "data",
+                           None, None, executor, log, progress)
+        g_model = train_round([g_dir / "round0" / "data"], GRASP_ONLY, g_dir / "model", preset,
+                              preset.grasp_round.epochs, None, log, progress)
+        summary["grasping"] = {"round": g_round, "model": g_model}
+        grasp_model = Path(g_model["best"])
+        for task in tasks:
+            rows = []
+            last: Path | None = None
+            data: list[Path] = []
+            for k, rc in enumerate(preset.rounds_for(task), start=1):
+                rdir = out / task / f"round{k}"
+                policy_model = last if rc.policy == "epsilon_greedy" else None
+                if rc.policy == "epsilon_greedy" and policy_model is None:
+                    raise PipelineError(f"round {k} is epsilon-greedy but no model was trained before it")
+                r = _collect(task, k, objects, rc, preset, rdir / "data", grasp_model, policy_model, executor,
+                             log, progress)
+                data.append(rdir / "data")
+                m = train_round(data, task, rdir / "model", preset, rc.epochs, last, log, progress)
+                last = Path(m["best"])
+                rows.append({"round": k, "collection": r, "model": m})
+                summary["tasks"][task] = rows
+                _write_summary(out, summary)
+            log(format_pipeline_table(task, rows))
+    finally:
+        executor.close()
+    _write_summary(out, summary)
+    return summary
+
+
+def _collect(task: str, k: int, objects: list[ObjectRecord], rc: RoundConfig, preset: PipelineConfig,
+             folder: Path, grasp_model: Path | None, task_model: Path | None, executor: Executor,
+             log: Callable[[str], None], progress: bool) -> dict[str, Any]:
+    done = folder / SUMMARY
+    if done.is_file():
+        return json.loads(done.read_text())
+    return collect_round(task, k, objects, rc, preset.collect, folder, grasp_model=grasp_model,
+                         task_model=task_model, executor=executor, progress=progress, log=log)
+
+
+def _metric(model: dict[str, Any], head: str, key: str = "auc") -> Any:
+    metrics = (model.get("val") or {}).get("metrics") or {}
+    return (metrics.get(head) or {}).get(key)
+
+
+def _fmt(x: Any, pct: bool = False) -> str:
+    if x is None:
+        return "n/a"
+    return f"{100 * x:.1f} %" if pct else f"{x:.3f}"
+
+
+def format_pipeline_table(task: str, rows: list[dict[str, Any]]) -> str:
+    """Markdown table: per round, the collection's labels and the trained model's held-out metrics."""
+    head = ("| round | policy | episodes | S_G | S_T | positives | Q_G AUC | Q_T\\|G AUC | Q_T AUC | "
+            "action MAE (x, y, z m; phi rad) |")
+    lines = [f"### {task}", "", head, "| --- " * 10 + "|"]
+    for row in rows:
+        c, m = row["collection"], row["model"]
+        mae = _metric(m, "action", "mae")
+        lines.append(
+            f"| {row['round']} | {c['policy']} | {c['valid']} | {_fmt(c['grasp_success_rate'], True)} | "
+            f"{_fmt(c['task_success_rate'], True)} | {c['task_success']} | {_fmt(_metric(m, 'grasp'))} | "
+            f"{_fmt(_metric(m, 'task_given_grasp'))} | {_fmt(_metric(m, 'task'))} | "
+            f"{', '.join(f'{v:.3f}' for v in mae) if isinstance(mae, list) else 'n/a'} |")
+    return "\n".join(lines)
+
+
+def _write_summary(out: Path, summary: dict[str, Any]) -> None:
+    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=str) + "\n")
+    parts = [f"# tognet pipeline, preset {summary['preset']}", ""]
+    g = summary.get("grasping")
+    if g:
+        r, m = g["round"], g["model"]
+        parts += ["### grasp-only round (task-agnostic Q_G model)", "",
+                  f"{r['valid']} episodes, S_G {_fmt(r['grasp_success_rate'], True)}; held-out Q_G AUC "
+                  f"{_fmt(_metric(m, 'grasp'))}", ""]
+    for task, rows in summary["tasks"].items():
+        parts += [format_pipeline_table(task, rows), ""]
+    (out / "summary.md").write_text("\n".join(parts))
