@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tognet.data.episodes import FAILURE_CODES, ShardWriter, read_dataset
+from tognet.data.episodes import FAILURE_CODES, FIELDS, ShardWriter, read_dataset
 from tognet.geometry import Grasp
 from tognet.grasping import (
     AntipodalConfig,
@@ -80,7 +80,7 @@ def collect(task_name: str, objects: Path, data: Path, n_objects: int, scenes: i
 
 def check_arrays(data: Path) -> dict:
     ep = read_dataset([data], keep_invalid=True)
-    assert ep.crop.shape[1:] == (64, 64) and ep.crop.dtype == np.float32
+    assert ep.crop.shape[1:] == (64, 64) and ep.crop.dtype == FIELDS["crop"][0]  # stored as float16
     for name in ("crop", "z", "grasp", "action"):
         assert np.all(np.isfinite(getattr(ep, name))), f"{name} has NaN/inf"
     assert set(np.unique(ep.grasp_success)) <= {0, 1} and set(np.unique(ep.task_success)) <= {0, 1}

@@ -27,15 +27,20 @@ def _rotate_grasps(grasps: np.ndarray, theta: float, pivot: np.ndarray) -> np.nd
     return out
 
 
+# The default extent and the finer 6 mm pixels of a 0.384 m crop (the thresholds below were set there).
+EXTENTS = [CropConfig().extent, 0.384]
+
+
+@pytest.mark.parametrize("extent", EXTENTS)
 @pytest.mark.parametrize("theta", [0.4, np.pi / 2, 2.5, -2.0])
-def test_crop_of_rotated_object_equals_crop_with_rotated_grasp(theta):
+def test_crop_of_rotated_object_equals_crop_with_rotated_grasp(theta, extent):
     camera = tilted_camera(0.9, x=0.02, y=-0.03, tilt=TILT)
     pivot = np.array([0.03, -0.02])
     shapes = t_shape(0.03, -0.02, 0.3)
     d0 = render_depth(camera, shapes)
     grasps = sample_antipodal(d0, camera, AntipodalConfig(), np.random.default_rng(0)).grasps[:20]
     assert len(grasps) == 20
-    config = CropConfig()
+    config = CropConfig(extent=extent)
     crops0 = extract_crops(d0, camera, grasps, config)
     d1 = render_depth(camera, rotate_shapes(shapes, theta, pivot))
     crops1 = extract_crops(d1, camera, _rotate_grasps(grasps, theta, pivot), config)
@@ -44,9 +49,12 @@ def test_crop_of_rotated_object_equals_crop_with_rotated_grasp(theta):
     assert diff.mean() < 3e-4
     assert np.percentile(diff, 95) < 1e-3
     assert np.percentile(diff, 99.5) < 0.03
-    # Control: without rotating the grasp the crops differ a lot (the test can fail).
+    # Control: without rotating the grasp the crops differ a lot (the test can fail). The means are over
+    # the crop, so they are shares of its area: the T (a fixed area, wholly inside) covers 7.6 % of a
+    # 0.384 m crop and 3.1 % of a 0.6 m one, so both means fall as 1 / extent**2 (their ratio does not
+    # change). The absolute floor, set at 0.384 m, is scaled by that area ratio (not by the pixel size).
     control = np.abs(extract_crops(d1, camera, grasps, config) - crops0)
-    assert control.mean() > 10 * diff.mean() and control.mean() > 1e-3
+    assert control.mean() > 10 * diff.mean() and control.mean() > 1e-3 * (0.384 / extent) ** 2
 
 
 def test_crops_are_metric_invariant_to_camera_height_and_focal_length():
@@ -72,8 +80,12 @@ def test_crop_values_are_distance_below_the_gripper_centre():
     crops = extract_crops(depth, camera, grasps, config)
     assert crops.shape == (2, 64, 64) and crops.dtype == np.float32
     # Straight-down camera: depth - gripper depth; on the box top that is z - 0.04, on the table z.
-    centre = crops[:, 30:34, 30:34]
-    np.testing.assert_allclose(centre, z - 0.04, atol=1e-5)
+    # Which crop pixels fall on the box top depends on the pixel size, so they are picked by their world
+    # points (5 mm, two depth-image pixels, clear of the box's edges).
+    xy = np.abs(crop_grid(grasps, config)[..., :2])
+    on_top = (xy[..., 0] < 0.1 - 0.005) & (xy[..., 1] < 0.015 - 0.005)
+    assert on_top[:, 28:36, 28:36].sum(axis=(1, 2)).min() >= 2 * 8  # at least 2 px across the 3 cm
+    np.testing.assert_allclose(crops[on_top], z - 0.04, atol=1e-5)
     np.testing.assert_allclose(crops[:, 0, 0], z, atol=1e-5)
     z_depth = grasp_depths(camera, grasps)
     np.testing.assert_allclose(z_depth, 0.9 - z)
@@ -89,16 +101,20 @@ def test_crop_values_are_distance_below_the_gripper_centre():
     assert grid[0, -1, 32, 1] < grid[0, 0, 32, 1] and grid[0, 32, -1, 0] > grid[0, 32, 0, 0]
 
 
-def test_center_crops_and_metric_extent():
-    config = CropConfig()
+@pytest.mark.parametrize("config", [CropConfig(), CropConfig(size=48, extent=0.45)], ids=["default", "48px"])
+def test_center_crops_and_metric_extent(config):
     crops = np.random.default_rng(0).random((3, 64, 64)).astype(np.float32)
     centre = center_crops(crops)
     assert centre.shape == (3, 32, 32)
     np.testing.assert_array_equal(centre, crops[:, 16:48, 16:48])
-    assert 0.35 <= config.extent <= 0.40
+    assert config.resolution == pytest.approx(config.extent / config.size)
+    # The grasp-quality stream's centre crop sees the whole open gripper.
+    assert config.center_size * config.resolution > AntipodalConfig().max_width
     grid = crop_grid(np.zeros((1, 4)), config)
+    assert grid.shape == (1, config.size, config.size, 3)
     span = grid[0, 0, -1, 0] - grid[0, 0, 0, 0]
-    assert span == pytest.approx(config.extent * 63 / 64)
+    assert span == pytest.approx(config.extent * (config.size - 1) / config.size)
+    np.testing.assert_allclose(np.diff(grid[0, 0, :, 0]), config.resolution)
     with pytest.raises(ValueError, match="shape"):
         center_crops(crops[:, :20, :20])
 
