@@ -77,6 +77,11 @@ class RoundStore:
         self.flush(force=True)
 
     def _recover(self) -> None:
+        for job, entry in list(self._entries.items()):
+            if not (self.folder / entry["file"]).is_file():
+                warnings.warn(f"{self.folder / entry['file']}: listed in the manifest but missing; its job "
+                              "runs again", stacklevel=3)
+                del self._entries[job]
         for path in sorted(self.folder.glob("shard-*.npz")):
             job = job_of(path.name)
             if job in self._entries:
