@@ -1,5 +1,6 @@
 """Smoke run of the whole pipe on real simulated episodes: objects -> simulator -> antipodal candidates ->
-NMS -> crops -> random actions -> labels -> shards -> ``tognet train`` (a few epochs, CPU).
+NMS -> crops -> uniform random actions -> labels -> shards (``tognet.collect``'s round 1, in this process) ->
+``tognet train`` (a few epochs, CPU).
 
     .venv/bin/python benchmarks/smoke_real_training.py [--task sweeping] [--objects 20] [--scenes 1]
         [--grasps 10] [--epochs 4] [--out DIR]
@@ -15,67 +16,32 @@ import argparse
 import json
 import tempfile
 import time
-from collections import Counter
 from pathlib import Path
 
 import numpy as np
 
-from tognet.data.episodes import FAILURE_CODES, FIELDS, ShardWriter, read_dataset
+from tognet.collect.config import CollectConfig, RoundConfig
+from tognet.collect.rounds import collect_round
+from tognet.collect.workers import LocalExecutor
+from tognet.data.episodes import FAILURE_CODES, FIELDS, read_dataset
 from tognet.geometry import Grasp
-from tognet.grasping import (
-    AntipodalConfig,
-    CropConfig,
-    NMSConfig,
-    extract_crops,
-    grasp_depths,
-    nms,
-    prepare_depth,
-    sample_antipodal,
-)
+from tognet.grasping import AntipodalConfig, prepare_depth, sample_antipodal
 from tognet.model.config import TrainConfig
 from tognet.model.train import train
 from tognet.objects import generate_set
 from tognet.sim import SimConfig, Simulator
-from tognet.tasks import FailureReason, get_task
 
 
 def collect(task_name: str, objects: Path, data: Path, n_objects: int, scenes: int, grasps: int,
             seed: int) -> dict:
+    """A round-1 collection (NMS grasps, uniform actions) through tognet.collect, in this process."""
     records = generate_set("primitive", "train", n_objects, objects)
-    task = get_task(task_name)
-    sim_cfg, ant_cfg, nms_cfg, crop_cfg = SimConfig(), AntipodalConfig(), NMSConfig(), CropConfig()
-    configs = {"sim": sim_cfg, "task": task.config, "antipodal": ant_cfg, "nms": nms_cfg, "crop": crop_cfg}
-    rng = np.random.default_rng(seed)
-    reasons: Counter[str] = Counter()
-    no_candidates = 0
+    cfg = CollectConfig(trials_per_scene=grasps, scenes_per_job=scenes, seed=seed)
     t0 = time.perf_counter()
-    with ShardWriter(data, task_name, meta={"policy": "nms_random", "smoke": True}, shard_size=256,
-                     configs=configs) as writer:
-        for rec in records:
-            sim = Simulator(sim_cfg, task_name, rec)
-            for _ in range(scenes):
-                scene_seed = int(rng.integers(2**31))
-                obs = sim.reset(scene_seed)
-                scene = prepare_depth(obs.depth, obs.camera)
-                cands = sample_antipodal(scene, None, ant_cfg, rng)
-                if len(cands.grasps) == 0:
-                    no_candidates += 1
-                    continue
-                keep = nms(cands.grasps, cands.quality, nms_cfg)[:grasps]
-                g = cands.grasps[keep]
-                crops = extract_crops(scene, None, g, crop_cfg)
-                z = grasp_depths(obs.camera, g)
-                for k in range(len(g)):
-                    action = task.random_action(rng)
-                    res = sim.execute(Grasp.from_array(g[k]), action, seed=k)
-                    assert isinstance(res.failure, FailureReason), type(res.failure)
-                    reasons[res.failure.value] += 1
-                    writer.add(crop=crops[k], z=z[k], grasp=g[k], action=action,
-                               grasp_success=int(res.grasp_success), task_success=int(res.task_success),
-                               valid=int(res.valid), failure=res.failure, object_id=rec.object_id,
-                               scene_seed=scene_seed, trial=k)
-    return {"seconds": time.perf_counter() - t0, "failures": dict(reasons), "scenes_without_candidates":
-            no_candidates}
+    rc = RoundConfig(episodes=n_objects * scenes * grasps)
+    summary = collect_round(task_name, 1, records, rc, cfg, data, executor=LocalExecutor(0), progress=False,
+                            log=lambda _m: None)
+    return {"seconds": time.perf_counter() - t0, "failures": summary["failures"], "errors": summary["errors"]}
 
 
 def check_arrays(data: Path) -> dict:
@@ -113,8 +79,7 @@ def main() -> None:
     work = args.out or Path(tempfile.mkdtemp(prefix="tognet-smoke-"))
     data = work / "data"
     stats = collect(args.task, work / "objects", data, args.objects, args.scenes, args.grasps, args.seed)
-    print(f"collected in {stats['seconds']:.0f} s; failure reasons {stats['failures']}; scenes without "
-          f"candidates {stats['scenes_without_candidates']}")
+    print(f"collected in {stats['seconds']:.0f} s; outcomes {stats['failures']}; skipped {stats['errors']}")
     print("data:", json.dumps(check_arrays(data)))
     cfg = TrainConfig(epochs=args.epochs, batch_size=64, val_fraction=0.2, patience=args.epochs)
     t0 = time.perf_counter()

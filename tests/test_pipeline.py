@@ -1,25 +1,18 @@
-"""End to end across packages: objects -> simulator -> grasp candidates -> episode shards -> training ->
+"""End to end across packages: objects -> collection (simulator, grasp candidates, shards) -> training ->
 predictor -> CEM -> execution. Small, but every hand-off between packages is the real one."""
 
+import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from tognet.data import ShardWriter, read_dataset
+from tognet.collect.config import CollectConfig, RoundConfig
+from tognet.collect.rounds import collect_round
+from tognet.collect.workers import LocalExecutor
+from tognet.data import read_dataset
 from tognet.geometry import Grasp
-from tognet.grasping import (
-    AntipodalConfig,
-    CEMConfig,
-    CropConfig,
-    NMSConfig,
-    cem,
-    extract_crops,
-    grasp_depths,
-    nms,
-    prepare_depth,
-    sample_antipodal,
-)
+from tognet.grasping import AntipodalConfig, CEMConfig, CropConfig, cem, prepare_depth, sample_antipodal
 from tognet.objects import generate_set
 from tognet.sim import SimConfig, Simulator
 from tognet.tasks import get_task
@@ -27,46 +20,28 @@ from tognet.tasks import get_task
 
 @pytest.fixture(scope="module")
 def collected(tmp_path_factory):
-    """A few sweeping episodes on two primitive objects, written as shards."""
+    """A round-1 sweeping collection on two primitive objects (tognet.collect's own glue), as shards."""
     root = tmp_path_factory.mktemp("pipeline")
     records = generate_set("primitive", "train", 2, root / "objects")
-    task = get_task("sweeping")
-    rng = np.random.default_rng(0)
-    data = root / "data"
-    labels = []
-    with ShardWriter(data, "sweeping", meta={"round": 1, "policy": "nms_random"}, shard_size=8,
-                     configs={"crop": CropConfig()}) as writer:
-        for record in records:
-            sim = Simulator(SimConfig(), "sweeping", record)
-            obs = sim.reset(seed=3)
-            scene = prepare_depth(obs.depth, obs.camera)
-            cands = sample_antipodal(scene, None, AntipodalConfig(), rng)
-            assert len(cands) > 0
-            keep = nms(cands.grasps, cands.quality, NMSConfig())[:5]
-            grasps = cands.grasps[keep]
-            crops = extract_crops(scene, None, grasps, CropConfig())
-            z = grasp_depths(scene.camera, grasps)
-            for i, g in enumerate(grasps):
-                action = task.random_action(rng)
-                result = sim.execute(Grasp.from_array(g), action, seed=i)
-                labels.append((result.grasp_success, result.task_success))
-                writer.add(crop=crops[i], z=np.float32(z[i]), grasp=g.astype(np.float32),
-                           action=action.astype(np.float32), grasp_success=result.grasp_success,
-                           task_success=result.task_success, valid=result.valid,
-                           failure=result.failure, object_id=record.object_id, scene_seed=3, trial=i)
-    return root, records, labels
+    summary = collect_round("sweeping", 1, records, RoundConfig(episodes=10, policy="nms_uniform"),
+                            CollectConfig(trials_per_scene=5, scenes_per_job=1), root / "data",
+                            executor=LocalExecutor(0), progress=False, log=lambda _m: None)
+    return root, records, summary
 
 
 def test_crops_and_depths_are_finite_and_shaped(collected):
-    root, _, labels = collected
+    root, _, summary = collected
     episodes = read_dataset([root / "data"])
-    assert len(episodes) == len(labels) == 10
+    assert len(episodes) == summary["valid"] == 10
     assert episodes.crop.shape == (10, 64, 64)
     assert np.all(np.isfinite(episodes.crop)) and np.all(np.isfinite(episodes.z))
     # The gripper depth is a camera-frame depth of a point near the table top under a ~1 m high camera.
     assert np.all((episodes.z > 0.3) & (episodes.z < 1.5))
-    stored = [(bool(g), bool(t)) for g, t in zip(episodes.grasp_success, episodes.task_success, strict=True)]
-    assert sorted(stored) == sorted(labels)
+    assert int(episodes.task_success.sum()) == summary["task_success"]
+    assert np.all(episodes.task_success <= episodes.grasp_success)
+    # the round's configs travel with the data: the crops' CropConfig is what training records
+    saved = json.loads((root / "data" / "configs" / "crop.json").read_text())
+    assert saved["extent"] == CropConfig().extent
 
 
 def test_train_predict_and_plan(collected):
