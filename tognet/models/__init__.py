@@ -1,0 +1,30 @@
+"""The shipped TOG-Net checkpoints: one per task plus the grasp-only (task-agnostic Q_G) model.
+
+    tognet/models/grasping.pt    the grasp-only model (the task-agnostic baselines rank grasps with it)
+    tognet/models/sweeping.pt    TOG-Net for sweeping (Q_G, Q_T|G, action mean)
+    tognet/models/hammering.pt   TOG-Net for hammering
+    tognet/models/<name>.json    each one's run summary (how it was trained, held-out metrics)
+
+They come from the ``quick`` self-supervision pipeline (``tognet pipeline --task both --preset quick``);
+the README says how to reproduce them.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from tognet.errors import TognetError
+
+MODELS_DIR = Path(__file__).resolve().parent
+NAMES = ("grasping", "sweeping", "hammering")
+
+
+def default_checkpoint(name: str) -> Path:
+    """The shipped checkpoint for ``name`` (a task, or ``grasping``); TognetError if it is not there."""
+    if name not in NAMES:
+        raise TognetError(f"no shipped model for '{name}'; shipped: {', '.join(NAMES)}")
+    path = MODELS_DIR / f"{name}.pt"
+    if not path.is_file():
+        raise TognetError(f"the shipped {name} model is missing ({path}); train one with `tognet pipeline` "
+                          "and pass --checkpoint")
+    return path
