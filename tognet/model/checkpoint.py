@@ -17,9 +17,12 @@ A checkpoint is a ``torch.save`` dict (loaded with ``weights_only=True``: plain 
     epoch, best, metrics            epochs completed, best validation record, latest metrics
     training                        (last.pt only) optimiser, scheduler, RNG states, history, patience
 
-Reading a checkpoint of another format version, or whose config lacks a field this code's TrainConfig
-has (written by an older tognet) or has one it does not know, raises :class:`CheckpointError` with the
-reason; so does a truncated or corrupt file, or weights that do not fit the recorded architecture.
+Reading a checkpoint of another format version, or whose config lacks an architecture or loss field this
+code's TrainConfig has (written by an older tognet) or has one it does not know, raises
+:class:`CheckpointError` with the reason; so does a truncated or corrupt file, or weights that do not fit
+the recorded architecture. A missing *training-loop* field (one added later, e.g. a data-loading setting)
+takes its default and is listed in ``payload["defaults_filled"]``: it cannot change what the network
+computes.
 """
 
 from __future__ import annotations
@@ -130,7 +133,14 @@ def load_checkpoint(path: str | Path, map_location: str | torch.device = "cpu") 
             f"({tognet.__version__}) reads version {FORMAT_VERSION}; retrain the model with this version"
         )
     written_by = payload.get("code", {})
-    missing = _missing_keys(payload.get("config", {}), TrainConfig().to_dict())
+    defaults = TrainConfig().to_dict()
+    missing = _missing_keys(payload.get("config", {}), defaults)
+    # top-level training-loop settings (not the architecture or the loss)
+    filled = [k for k in missing if "." not in k and not isinstance(defaults[k], dict)]
+    if filled and isinstance(payload.get("config"), dict):
+        payload["config"] = {**payload["config"], **{k: defaults[k] for k in filled}}
+    payload["defaults_filled"] = filled
+    missing = [k for k in missing if k not in filled]
     if missing:
         raise CheckpointError(
             f"{path}: its config lacks {missing}, fields this tognet ({tognet.__version__}) needs; it was "
