@@ -70,7 +70,7 @@ def test_import_exit_codes(tmp_path):
     result = runner.invoke(app, ["objects", "import", str(src), "--out", str(tmp_path / "out")])
     assert result.exit_code == 1
     assert "empty.obj: empty" in result.output
-    assert "imported 1 of 2" in result.output
+    assert "imported 0 of 2" in result.output and "(1 unchanged, kept)" in result.output  # bar.stl again
     result = runner.invoke(app, ["objects", "import", str(tmp_path / "nope"), "--out", str(tmp_path / "out")])
     assert result.exit_code == 2
 

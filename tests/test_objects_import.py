@@ -111,14 +111,17 @@ def test_scale_and_reimport_replace_only_that_object(tmp_path):
     assert not report.errors
     assert max(report.records[0].extents) == pytest.approx(0.15)
     first = (out / "imported-mm_bar" / "object.xml").read_text()
-    report = import_meshes(src, out, scale=0.001, density=2000.0)
+    kept = import_meshes(src, out, scale=0.001, density=2000.0)  # other settings: kept without replace
+    assert not kept.records and "settings differ" in kept.errors[0][1] and "--replace" in kept.errors[0][1]
+    assert (out / "imported-mm_bar" / "object.xml").read_text() == first
+    report = import_meshes(src, out, scale=0.001, density=2000.0, replace=True)
     assert report.records[0].mass == pytest.approx(2000.0 * 0.15 * 0.02 * 0.02, rel=1e-6)
     assert [r.object_id for r in load_catalog(out)] == ["imported-mm_bar"]
     assert (out / "imported-mm_bar" / "object.xml").read_text() != first
 
 
 def test_missing_or_empty_folder_is_an_error(tmp_path):
-    with pytest.raises(FileNotFoundError, match="mesh folder not found"):
+    with pytest.raises(FileNotFoundError, match="mesh file or folder not found"):
         import_meshes(tmp_path / "nope", tmp_path / "out")
     (tmp_path / "empty").mkdir()
     with pytest.raises(FileNotFoundError, match="no OBJ/STL/PLY files"):

@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
-from tognet.config import Config, doc
+from tognet.config import Config, ConfigError, doc
 from tognet.geometry import Camera
 from tognet.grasping.depth import DepthScene, prepare_depth
 
@@ -128,6 +128,37 @@ class AntipodalConfig(Config):
     workspace: tuple[float, float, float, float] | None = doc(
         None, "Optional world (x_min, x_max, y_min, y_max) box the contacts' midpoint must lie in."
     )
+
+    def __post_init__(self) -> None:
+        """Refuse values the sampler cannot work with (ConfigError naming the field), instead of failing
+        deep inside it or silently returning nothing."""
+        positive = ("friction_coef", "max_width", "depth_grad_thresh", "max_edge_pixels", "max_candidates",
+                    "min_pixel_separation", "angle_bin", "normal_radius", "finger_width", "scan_step",
+                    "max_contact_shift", "landing_spacing", "pad_height")
+        for name in positive:
+            value = getattr(self, name)
+            if not value > 0:
+                raise ConfigError(f"AntipodalConfig.{name} must be positive, got {value}")
+        not_negative = ("min_width", "edge_smoothing", "min_quality", "min_depth_offset", "max_depth_offset",
+                        "finger_clearance", "min_object_height", "scan_depth", "occupancy_tolerance",
+                        "finger_offset")
+        for name in not_negative:
+            value = getattr(self, name)
+            if not value >= 0:
+                raise ConfigError(f"AntipodalConfig.{name} must be 0 or more, got {value}")
+        if self.min_width >= self.max_width:
+            raise ConfigError(f"AntipodalConfig.min_width ({self.min_width}) must be below max_width "
+                              f"({self.max_width})")
+        if self.min_depth_offset > self.max_depth_offset:
+            raise ConfigError(f"AntipodalConfig.min_depth_offset ({self.min_depth_offset}) must not exceed "
+                              f"max_depth_offset ({self.max_depth_offset})")
+        for name in ("min_normal_coherence", "min_quality"):
+            if not 0 <= getattr(self, name) <= 1:
+                raise ConfigError(f"AntipodalConfig.{name} must lie in [0, 1], got {getattr(self, name)}")
+        if self.workspace is not None and not (self.workspace[0] < self.workspace[1]
+                                               and self.workspace[2] < self.workspace[3]):
+            raise ConfigError(f"AntipodalConfig.workspace (x_min, x_max, y_min, y_max) is empty: "
+                              f"{self.workspace}")
 
 
 @dataclass(frozen=True)

@@ -115,6 +115,14 @@ def load_depth_file(path: str | Path) -> NDArray[np.float32]:
     if not path.is_file():
         raise FileNotFoundError(f"depth file not found: {path}")
     suffix = path.suffix.lower()
+    with open(path, "rb") as fh:
+        head = fh.read(8)
+    magic = {".npy": (b"\x93NUMPY", "a .npy file (no NumPy header)"),
+             ".npz": (b"PK", "a .npz file (not a zip archive)"),
+             ".png": (b"\x89PNG\r\n\x1a\n", "a PNG image (no PNG signature)")}.get(suffix)
+    if magic is not None and not head.startswith(magic[0]):
+        what = "empty" if not head else "damaged, or another format renamed?"
+        raise DepthImageError(f"{path}: not {magic[1]}: {what}")
     try:
         if suffix == ".npy":
             arr = np.load(path, allow_pickle=False)
@@ -140,8 +148,11 @@ def load_depth_file(path: str | Path) -> NDArray[np.float32]:
             raise DepthImageError(f"{path}: unsupported depth file type {suffix!r} (use .npy, .npz or .png)")
     except DepthImageError:
         raise
-    except (OSError, ValueError) as exc:
-        raise DepthImageError(f"{path}: cannot read depth image ({exc})") from exc
+    except (OSError, ValueError, EOFError) as exc:
+        text = str(exc)
+        if "allow_pickle" in text or "pickled" in text:  # numpy's advice to unpickle is not ours to give
+            raise DepthImageError(f"{path}: holds Python objects, not a numeric depth array") from None
+        raise DepthImageError(f"{path}: cannot read depth image, damaged or truncated? ({text})") from None
     arr = np.asarray(arr)
     if arr.dtype.kind in "iu" and suffix != ".png":
         arr = arr.astype(np.float32) / 1000.0

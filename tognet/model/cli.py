@@ -100,6 +100,22 @@ def eval_cmd(
     typer.echo(text)
 
 
+def _totals_from_shards(folder: Path) -> dict[str, object]:
+    """Task and manifest-style totals of a dataset folder read from its shards' label columns."""
+    from tognet.data.episodes import DatasetError, _summarise, manifest_totals, read_columns, shard_paths
+
+    entries, tasks = [], set()
+    for path in shard_paths(folder):
+        cols, meta = read_columns(path, ("valid", "grasp_success", "task_success", "failure"))
+        entry = _summarise(cols["valid"], cols["grasp_success"], cols["task_success"], cols["failure"])
+        entries.append({**entry, "count": entry["episodes"]})
+        if meta.get("task") is not None:
+            tasks.add(str(meta["task"]))
+    if len(tasks) > 1:
+        raise DatasetError(f"{folder}: shards of several tasks ({', '.join(sorted(tasks))}) and no manifest")
+    return {"task": tasks.pop() if tasks else None, "totals": manifest_totals(entries)}
+
+
 @user_errors
 def data_info_cmd(
     folder: Path = typer.Argument(..., help="An episode dataset folder (with manifest.json), or a folder of "
@@ -123,8 +139,13 @@ def data_info_cmd(
         if not d["shards"] and d["task"] is None:
             raise DatasetError(f"{d['dir']}: not an episode dataset (no manifest.json and no shards)")
     for d in descs:
-        typer.echo(json.dumps({"dir": d["dir"], "task": d["task"], "shards": len(d["shards"]),
-                               "totals": d["totals"]}, indent=2))
+        entry = {"dir": d["dir"], "task": d["task"], "shards": len(d["shards"]), "totals": d["totals"]}
+        if d["totals"] is None:  # shards without a manifest (a writer stopped early): count them ourselves
+            entry.update(_totals_from_shards(Path(d["dir"])))
+            typer.secho(f"note: {d['dir']} has no manifest.json (a collection stopped before writing it?); "
+                        f"task and totals read from its {len(d['shards'])} shard(s)", err=True,
+                        fg=typer.colors.YELLOW)
+        typer.echo(json.dumps(entry, indent=2))
     if check:
         bad = []
         paths = [p for f in folders for p in shard_paths(f)]

@@ -71,15 +71,18 @@ def generate(
 @objects_app.command("import")
 @user_errors
 def import_cmd(
-    src_dir: Path = typer.Argument(..., help="Folder of OBJ/STL/PLY files (not searched recursively)."),
+    src_dir: Path = typer.Argument(
+        ..., help="An OBJ/STL/PLY file, or a folder of them (not searched recursively)."),
     out: Path = typer.Option(
-        ..., "--out", help="Set folder to add the objects to (existing objects are kept)."
+        ..., "--out", help="Set folder to add the objects to (existing objects are kept unless --replace)."
     ),
     scale: float = typer.Option(
         1.0, "--scale", min=0.0, help="Metres per file unit (0.001 for millimetres)."
     ),
     density: float = typer.Option(1000.0, "--density", min=0.0, help="Density (kg/m^3) for the mass."),
     friction: float = typer.Option(0.8, "--friction", min=0.0, help="Sliding friction coefficient."),
+    replace: bool = typer.Option(
+        False, "--replace", help="Re-import files whose object is already in --out (else they are kept)."),
 ) -> None:
     """Import your own meshes as objects (kind 'imported').
 
@@ -87,22 +90,26 @@ def import_cmd(
 
     Refused with the reason: unreadable, empty, flat, zero volume, size outside 1 cm-1.5 m, not watertight.
 
-    The other files are convex-decomposed and written; objects already in --out are kept.
+    The other files are convex-decomposed and written. An object already in --out is kept: a file imported
+    before unchanged is skipped, a changed one is refused unless --replace.
 
-    Exit code: 0 if every file was imported, 1 if any failed, 2 on a usage error.
+    Exit code: 0 if every file was imported (or skipped unchanged), 1 if any failed, 2 on a usage error.
     """
     from tognet.objects.importer import import_meshes
 
-    report = import_meshes(src_dir, out, scale=scale, density=density, friction=friction, progress=True)
+    report = import_meshes(src_dir, out, scale=scale, density=density, friction=friction, progress=True,
+                           replace=replace)
     for record in report.records:
         typer.echo(
             f"ok      {record.object_id}: {1000 * record.mass:.0f} g, {len(record.collision_meshes)} pieces"
         )
+    for _path, message in report.kept:
+        typer.echo(f"kept    {message}")
     for _path, message in report.errors:
         typer.secho(f"failed  {message}", err=True, fg=typer.colors.RED)
-    typer.echo(
-        f"imported {len(report.records)} of {len(report.records) + len(report.errors)} files into {out}"
-    )
+    total = len(report.records) + len(report.errors) + len(report.kept)
+    kept = f" ({len(report.kept)} unchanged, kept)" if report.kept else ""
+    typer.echo(f"imported {len(report.records)} of {total} files into {out}{kept}")
     if report.errors:
         raise typer.Exit(code=1)
 

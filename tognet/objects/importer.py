@@ -14,15 +14,24 @@ friction, MJCF. What is checked, in order, and the error each failure gives (nam
 
 A file that fails is listed in ``ImportReport.errors`` and the others are still imported. The object
 id is ``imported-<file stem>`` (lower case, other characters as ``_``). Objects already in the output
-folder stay; re-importing a file with the same id replaces that object only after the new one has been
-written completely.
+folder stay: a file whose id is already there is skipped (``ImportReport.kept``) when it is the same file
+imported with the same settings (its sha256 is recorded), and refused (an error naming ``--replace``) when
+it changed; with ``replace=True`` it replaces that object, only after the new one has been written
+completely.
+
+Before trimesh sees a file, its format is checked from its bytes (a binary STL's size must match the
+triangle count in its header, an ASCII STL and an OBJ must be text, a PLY must start with ``ply``):
+random or truncated files are named as such instead of failing inside a reader (which, given random
+bytes, looks for a text-encoding detector, a module tognet does not install).
 """
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 import re
 import shutil
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -51,6 +60,7 @@ class ImportReport:
 
     records: list[ObjectRecord] = field(default_factory=list)
     errors: list[tuple[Path, str]] = field(default_factory=list)
+    kept: list[tuple[Path, str]] = field(default_factory=list)
     catalog: Path | None = None
 
 
@@ -58,12 +68,49 @@ def _slug(stem: str) -> str:
     return re.sub(r"[^a-z0-9_-]+", "_", stem.lower()).strip("_") or "mesh"
 
 
+def _is_text(data: bytes) -> bool:
+    if b"\x00" in data[:1 << 16]:
+        return False
+    try:
+        data.decode("utf-8")
+    except UnicodeDecodeError:
+        return False
+    return True
+
+
+def check_mesh_bytes(path: Path, data: bytes) -> None:
+    """ImportMeshError when ``data`` cannot be a mesh file of ``path``'s type (see the module docstring)."""
+    suffix = path.suffix.lower()
+    if not data:
+        raise ImportMeshError(f"{path}: empty file")
+    if suffix == ".stl":
+        count = int.from_bytes(data[80:84], "little") if len(data) >= 84 else None
+        if count is not None and len(data) == 84 + 50 * count:
+            return  # binary STL
+        if data[:5].lower() == b"solid" and _is_text(data):
+            return  # ASCII STL
+        expected = 84 + 50 * count if count is not None else 0
+        # A plausible triangle count (not the random number a damaged header gives) and too few bytes.
+        if count and len(data) < expected <= max(20 * len(data), 1 << 20) and not _is_text(data):
+            raise ImportMeshError(f"{path}: truncated binary STL: its header announces {count} triangles "
+                                  f"({expected} bytes), the file has {len(data)} bytes")
+        raise ImportMeshError(f"{path}: not an STL file (neither a binary STL of 84 + 50 bytes per triangle "
+                              "nor ASCII text starting with 'solid'): damaged or truncated?")
+    if suffix == ".obj" and not _is_text(data):
+        raise ImportMeshError(f"{path}: not an OBJ file (OBJ is text; this holds binary data): damaged?")
+    if suffix == ".ply" and not data.startswith(b"ply"):
+        raise ImportMeshError(f"{path}: not a PLY file (it does not start with 'ply'): damaged?")
+
+
 def load_checked(
     path: Path, scale: float = 1.0, min_size: float = MIN_SIZE, max_size: float = MAX_SIZE
 ) -> trimesh.Trimesh:
     """Load, scale, repair and check one mesh file; raise ImportMeshError naming the file on failure."""
+    check_mesh_bytes(path, path.read_bytes())
     try:
         loaded = trimesh.load(path, force="mesh", process=False)
+    except ImportError:  # a reader wanting an optional module: the file is not what its name says
+        raise ImportMeshError(f"{path}: unreadable, damaged or truncated?") from None
     except Exception as exc:  # trimesh raises many kinds of errors on broken files
         raise ImportMeshError(
             f"{path}: unreadable, damaged or truncated? ({type(exc).__name__}: {str(exc).strip()})"
@@ -110,20 +157,28 @@ def import_meshes(
     split: str = "test",
     decompose_config: DecomposeConfig | None = None,
     progress: bool = False,
+    replace: bool = False,
 ) -> ImportReport:
-    """Import every OBJ/STL/PLY file of ``src_dir`` (not recursive) into the object set ``out``.
+    """Import one OBJ/STL/PLY file, or every one of the folder ``src_dir`` (not recursive), into the object
+    set ``out``. An object already in ``out`` is kept unless ``replace`` (see the module docstring).
 
-    Returns an :class:`ImportReport`; raises only if ``src_dir`` is missing or holds no mesh file,
-    or if the parameters are invalid.
+    Returns an :class:`ImportReport`; raises only if ``src_dir`` is missing, is a file of another type or
+    a folder without mesh files, or if the parameters are invalid.
     """
     src_dir, out = Path(src_dir), Path(out)
-    if not src_dir.is_dir():
-        raise FileNotFoundError(f"mesh folder not found: {src_dir}")
+    kinds = "/".join(s[1:].upper() for s in MESH_SUFFIXES)
+    if src_dir.is_file():
+        if src_dir.suffix.lower() not in MESH_SUFFIXES:
+            raise ValueError(f"{src_dir}: not a mesh file ({kinds}, by its extension)")
+        files = [src_dir]
+    elif not src_dir.is_dir():
+        raise FileNotFoundError(f"mesh file or folder not found: {src_dir}")
+    else:
+        files = sorted(p for p in src_dir.iterdir() if p.is_file() and p.suffix.lower() in MESH_SUFFIXES)
     if not scale > 0 or not density > 0 or not friction > 0:
         raise ValueError(f"scale, density and friction must be positive, got {scale}, {density}, {friction}")
-    files = sorted(p for p in src_dir.iterdir() if p.is_file() and p.suffix.lower() in MESH_SUFFIXES)
     if not files:
-        raise FileNotFoundError(f"no {'/'.join(s[1:].upper() for s in MESH_SUFFIXES)} files in {src_dir}")
+        raise FileNotFoundError(f"no {kinds} files in {src_dir}")
     config = decompose_config or DecomposeConfig()
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out} is a file, not a folder")
@@ -138,6 +193,19 @@ def import_meshes(
             report.errors.append((path, f"{path}: same object id {oid} as {seen[oid].name}; rename one"))
             continue
         seen[oid] = path
+        sha = hashlib.sha256(path.read_bytes()).hexdigest()
+        settings = {"sha256": sha, "scale": scale, "density": density, "friction": friction}
+        old = existing.get(oid)
+        if old is not None and not replace:
+            before = {k: old.extra.get(k) for k in settings}
+            if before == settings:
+                report.kept.append((path, f"{oid}: already in {out} from this file with these settings"))
+            else:
+                what = "the file changed" if before["sha256"] not in (None, sha) else \
+                    "the settings differ" if before["sha256"] == sha else "it may differ"
+                report.errors.append((path, f"{path}: {oid} is already in {out} and {what}; the object there "
+                                            "is kept (pass --replace to overwrite it)"))
+            continue
         try:
             mesh = load_checked(path, scale)
             lo, hi = mesh.bounds
@@ -157,7 +225,8 @@ def import_meshes(
                 collision_pieces=pieces,
                 density=density,
                 friction=friction,
-                extra={"source": path.name, "scale": scale, "offset": [round(float(v), 9) for v in shift]},
+                extra={"source": path.name, "scale": scale, "offset": [round(float(v), 9) for v in shift],
+                       "sha256": sha, "density": density, "friction": friction},
             )
         except ImportMeshError as exc:
             report.errors.append((path, str(exc)))
@@ -178,7 +247,7 @@ def import_meshes(
         else:
             out.mkdir(parents=True, exist_ok=True)
             (staging / oid).rename(final)
-        record = replace(record, folder=str(final.resolve()))
+        record = dataclasses.replace(record, folder=str(final.resolve()))
         existing[oid] = record
         report.records.append(record)
     shutil.rmtree(staging, ignore_errors=True)
