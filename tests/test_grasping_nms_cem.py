@@ -86,7 +86,7 @@ def test_cem_finds_the_maximum_of_a_known_function(seed):
     initial = np.column_stack(
         [rng.uniform(-0.15, 0.15, (200, 2)), rng.uniform(0.0, 0.04, 200), rng.uniform(0, 2 * np.pi, 200)]
     )
-    result = cem(score, initial, CEMConfig(components=1), rng)
+    result = cem(score, initial, CEMConfig(components=1, snap_to_candidates=False), rng)
     assert result.grasps.shape == (200 + 3 * 64, 4) and result.scores.shape == (392,)
     np.testing.assert_array_equal(np.bincount(result.iteration), [200, 64, 64, 64])
     assert result.best_score == pytest.approx(score(result.best[None])[0])
@@ -106,10 +106,28 @@ def test_cem_prefers_the_higher_of_two_modes():
     initial = np.column_stack(
         [rng.uniform(-0.15, 0.15, (200, 2)), rng.uniform(0.0, 0.04, 200), rng.uniform(0, 2 * np.pi, 200)]
     )
-    result = cem(score, initial, CEMConfig(), rng)
+    result = cem(score, initial, CEMConfig(snap_to_candidates=False), rng)
     assert np.linalg.norm(result.best[:2] - b[:2]) < 0.02
     assert angle_difference(result.best[3], b[3]) < 0.5
     assert result.best_score > 0.8  # near the higher peak's value (1.0), above the lower one's (0.6)
+
+
+def test_cem_snapped_to_candidates_only_evaluates_candidates():
+    rng = np.random.default_rng(3)
+    target = np.array([0.03, -0.02, 0.02, 2.0])
+    initial = np.column_stack(
+        [rng.uniform(-0.15, 0.15, (200, 2)), rng.uniform(0.0, 0.04, 200), rng.uniform(0, 2 * np.pi, 200)]
+    )
+    score = _peak_score(target)
+    result = cem(score, initial, CEMConfig(), rng)
+    # every evaluated grasp is one of the initial candidates, and the best is the best candidate
+    d = np.abs(result.grasps[:, None, :] - initial[None, :, :]).sum(-1).min(axis=1)
+    assert np.all(d < 1e-12)
+    assert result.best_score == pytest.approx(score(initial).max())
+    # the later iterations concentrate on the best candidates (most samples near the peak)
+    late = result.grasps[result.iteration == 3]
+    assert np.median(np.linalg.norm(late[:, :2] - target[:2], axis=1)) < np.median(
+        np.linalg.norm(initial[:, :2] - target[:2], axis=1))
 
 
 def test_cem_bad_inputs():
