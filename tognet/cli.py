@@ -24,6 +24,7 @@ _COMMAND_MODULES = (
     "tognet.grasping.cli",
     "tognet.model.cli",
     "tognet.collect.cli",
+    "tognet.planning.cli",
     "tognet.evaluate.cli",
 )
 

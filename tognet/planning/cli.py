@@ -1,0 +1,133 @@
+"""``tognet plan``: a task-oriented grasp and motion on your own depth image, with a trained TOG-Net."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import typer
+
+from tognet.cliutil import user_errors
+
+DEPTH_SUFFIXES = (".png", ".npy", ".npz")
+
+
+def _vec(values: list[float] | tuple[float, ...], digits: int = 4) -> str:
+    return "(" + ", ".join(f"{v:+.{digits}f}" for v in values) + ")"
+
+
+def _check_output(path: Path | None, suffix: str, option: str) -> None:
+    if path is None:
+        return
+    if path.is_dir():
+        raise ValueError(f"{option} {path} is a folder; give a {suffix} file name")
+    if path.suffix.lower() != suffix:
+        raise ValueError(f"{option} must name a {suffix} file, got '{path}'")
+    parent = path.parent
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir():
+        raise ValueError(f"{option} {path}: {parent} is a file, not a folder")
+
+
+@user_errors
+def plan_cmd(
+    depth: Path = typer.Option(
+        ..., "--depth", help="Depth image: 16-bit .png (millimetres, 0 = no reading), .npy/.npz (float "
+        "metres with NaN or 0 holes, or integer millimetres)."),
+    intrinsics: Path = typer.Option(
+        ..., "--intrinsics", help="Intrinsics JSON: width, height, fx, fy, cx, cy (pixels); see the README."),
+    task: str = typer.Option(..., "--task", help="sweeping or hammering."),
+    camera_pose: Path | None = typer.Option(
+        None, "--camera-pose", help="Camera pose JSON {\"world_from_camera\": 4 x 4} in a frame whose z = 0 "
+        "is the table top. Without it the table plane is fitted to the image."),
+    checkpoint: Path | None = typer.Option(
+        None, "--checkpoint", help="TOG-Net checkpoint of the task (default: the shipped model)."),
+    top: int = typer.Option(3, "--top", min=0, help="Alternatives to report beside the chosen grasp."),
+    out: Path | None = typer.Option(None, "--out", help="Write the whole plan here (.json)."),
+    overlay: Path | None = typer.Option(None, "--overlay",
+                                        help="Draw the plan on the depth image here (.png)."),
+    reference: tuple[float, float, float] | None = typer.Option(
+        None, "--reference", metavar="X Y Z", help="The task's reference point (hammering: the peg's centre; "
+        "sweeping: the cans' mean), world frame with --camera-pose, else table frame: the start pose is then "
+        "given absolutely too."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the sampler and the search."),
+    config: Path | None = typer.Option(None, "--config", help="UserPlanConfig JSON (defaults otherwise)."),
+) -> None:
+    """Plan a task-oriented grasp and the task's motion on one depth image from your own camera.
+
+    Prints the chosen grasp in the table frame (z up, origin below the camera), the camera frame and, with
+    --camera-pose, the world frame; its Q_G, Q_T|G and Q_T; the action (the start pose of the task's motion
+    relative to its reference point); the top alternatives and the time each stage took.
+    """
+    from tognet.planning.camera import load_camera_pose, load_intrinsics
+    from tognet.planning.user import UserPlanConfig, UserPlanner
+    from tognet.tasks import TASK_NAMES
+
+    if task not in TASK_NAMES:
+        raise ValueError(f"unknown --task '{task}'; known: {', '.join(TASK_NAMES)}")
+    _check_output(out, ".json", "--out")
+    _check_output(overlay, ".png", "--overlay")
+    if not depth.is_file():
+        folder = " (it is a folder)" if depth.is_dir() else ""
+        raise FileNotFoundError(f"depth file not found: {depth}{folder}")
+    if depth.suffix.lower() not in DEPTH_SUFFIXES:
+        raise ValueError(f"--depth {depth}: unsupported file type '{depth.suffix}' (use .png, .npy or .npz)")
+    if reference is not None and not all(math.isfinite(v) for v in reference):
+        raise ValueError(f"--reference takes 3 finite numbers, got {' '.join(map(str, reference))}")
+    cfg = UserPlanConfig.load(config) if config is not None else UserPlanConfig()
+    cfg = cfg.replace(top=top, seed=seed)
+    k = load_intrinsics(intrinsics)
+    pose = load_camera_pose(camera_pose) if camera_pose is not None else None
+    image, k, pose = UserPlanner.read_inputs(depth, k, pose)  # every input checked before the model loads
+    planner = UserPlanner(task, checkpoint, cfg)
+    plan = planner.plan(image, k, pose, reference=reference)
+    png = None
+    if overlay is not None:
+        from tognet.planning.overlay import render_plan
+
+        png = render_plan(plan, image, cfg.antipodal.max_width)
+    g = plan.grasp
+    t = {k_: 1000 * v for k_, v in plan.timing.items()}
+    stages = ", ".join(f"{k_} {v:.0f}" for k_, v in t.items() if k_ != "total")
+    typer.echo(f"plan for {task} with {plan.checkpoint}: {plan.candidates} candidates, {plan.evaluated} "
+               f"grasps scored, {t['total']:.0f} ms ({stages})")
+    p = plan.plane
+    fit = f" ({100 * p.inliers:.0f} % of the pixels on it, rms {1000 * p.rms:.1f} mm)" if p.fitted else ""
+    typer.echo(f"table: {'fitted to the image' if p.fitted else 'from the camera pose'}, the camera "
+               f"{p.offset:.3f} m above it, tilted {p.tilt:.1f} deg{fit}")
+    obj = plan.objects[0]
+    typer.echo(f"object: {obj['area_cm2']:.0f} cm^2, {1000 * obj['height_m']:.0f} mm high, at table "
+               f"({obj['centre_table_m'][0]:.3f}, {obj['centre_table_m'][1]:.3f}) m"
+               + (f" (+ {len(plan.objects) - 1} smaller, ignored)" if len(plan.objects) > 1 else ""))
+    typer.echo(f"grasp, table frame: x y z {_vec(g.table[:3])} m, phi {g.table[3]:.4f} rad")
+    typer.echo(f"grasp, camera frame: centre {_vec(g.camera_position)} m, "
+               f"jaw axis {_vec(g.camera_jaw_axis, 3)}")
+    if g.world is not None:
+        typer.echo(f"grasp, world frame: x y z {_vec(g.world[:3])} m, phi {g.world[3]:.4f} rad")
+    typer.echo(f"scores: Q_T {g.q_t:.3f} = Q_T|G {g.q_t_given_g:.3f} x Q_G {g.q_g:.3f}")
+    a = g.action
+    start = (f"reference + {_vec(g.start_offset, 3)} m" if g.start_position is None else
+             f"{_vec(g.start_position, 3)} m ({'world' if g.world is not None else 'table'} frame)")
+    typer.echo(f"action: a = {_vec(a[:3], 3)} m, a_phi {a[3]:+.3f} rad; start pose {start}, yaw "
+               f"{g.start_yaw:+.3f} rad")
+    for i, alt in enumerate(plan.alternatives, start=2):
+        typer.echo(f"  alternative {i}: table {_vec(alt.table[:3])} m, phi {alt.table[3]:.3f}; "
+                   f"Q_T {alt.q_t:.3f} (Q_T|G {alt.q_t_given_g:.3f}, Q_G {alt.q_g:.3f}); "
+                   f"action {_vec(alt.action, 3)}")
+    for text in plan.warnings:
+        typer.secho(f"warning: {text}", fg=typer.colors.YELLOW, err=True)
+    written = []
+    if out is not None:
+        written.append(str(plan.save(out)))
+    if png is not None and overlay is not None:
+        from tognet.planning.user import write_atomic
+
+        written.append(str(write_atomic(overlay, png)))
+    if written:
+        typer.echo("wrote " + ", ".join(written))
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``plan`` to the tognet command."""
+    app.command("plan")(plan_cmd)

@@ -1,0 +1,550 @@
+"""Plan a task-oriented grasp and motion on a user's own depth image, with a trained TOG-Net.
+
+    planner = UserPlanner("hammering", "runs/hammering/round3/model/best.pt")   # default: the shipped model
+    plan = planner.plan("depth.png", "intrinsics.json")                          # camera pose optional
+    plan.grasp.table, plan.grasp.q_t, plan.grasp.action                          # see UserPlan / PlannedGrasp
+    # or in one call (loads the model each time it is not cached):
+    plan = tognet.plan("depth.png", "intrinsics.json", task="hammering")
+
+Stages (each timed in ``plan.timing``):
+
+1. **read**: the depth image (16-bit PNG millimetres, .npy/.npz metres or integer millimetres), the
+   intrinsics and the optional camera pose (:mod:`tognet.planning.camera`), checked against each other.
+2. **table**: the table plane, from the camera pose when given, else fitted to the image (RANSAC + least
+   squares), and the table frame every stage works in (z up, origin below the camera, x along the image's
+   x: the plan does not depend on where a user's world frame is). Holes (zeros, NaN) are filled as the
+   sampler's own path does (:func:`tognet.grasping.fill_holes`) and per-pixel heights above the table
+   computed.
+3. **objects**: what stands on the table (connected regions above it); none is an error, several give a
+   warning and the plan is made on the largest (the others are replaced by the table).
+4. **candidates**: antipodal candidates (:func:`tognet.grasping.sample_antipodal`, both jaw orientations).
+5. **grasp**: the cross-entropy method on Q_T = Q_T|G * Q_G (:class:`tognet.collect.policies.CEMGrasp`, as the
+   TOG-Net planner of the evaluation and the collection's greedy rounds), every evaluated grasp kept.
+6. **action**: the policy's mean at the chosen grasp and at the top-K alternatives (distinct grasps, by
+   non-maximum suppression of everything the search scored), clipped to the task's action box
+   (:class:`tognet.collect.policies.PolicyActions`).
+
+Crops are metric and taken from world heights, so any image size, intrinsics and camera height or tilt
+gives the network the inputs it was trained on; the network's other input, the gripper depth z, is taken
+as a camera looking straight down from ``network_camera_height`` (the simulator's) would see it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from tognet.collect.config import PolicyConfig
+from tognet.collect.policies import CEMGrasp, PolicyActions, SceneView, check_predictor_crops
+from tognet.config import Config, doc
+from tognet.errors import TognetError
+from tognet.geometry import Camera, CameraIntrinsics, DepthImageError, validate_depth
+from tognet.grasping.antipodal import AntipodalConfig, sample_antipodal
+from tognet.grasping.crops import CropConfig, extract_crops
+from tognet.grasping.depth import DepthScene, fill_holes, height_map, load_depth_file
+from tognet.grasping.nms import NMSConfig, angle_difference
+from tognet.planning.camera import (
+    NoObjectError,
+    PlaneFitConfig,
+    SegmentConfig,
+    TablePlane,
+    check_image_size,
+    fit_table_plane,
+    load_camera_pose,
+    load_intrinsics,
+    mask_to_table,
+    plane_from_pose,
+    segment_objects,
+)
+from tognet.tasks import TASK_NAMES, Task, get_task
+
+#: The simulator's nominal camera height above the table (SimConfig().camera.position z), where every
+#: training image was taken from (+-3 cm).
+SIM_CAMERA_HEIGHT = 0.72
+
+
+class PlanInputError(TognetError):
+    """A user's input to the planner is unusable; the message names it and the problem."""
+
+
+@dataclass(frozen=True)
+class UserPlanConfig(Config):
+    """How a user's depth image is planned on."""
+
+    antipodal: AntipodalConfig = doc(
+        factory=lambda: AntipodalConfig(axis_direction="both"),
+        text="Antipodal candidates, CEM's start (both jaw orientations, as in collection).",
+    )
+    policy: PolicyConfig = doc(
+        factory=PolicyConfig,
+        text="Its ``cem`` settings drive the search on Q_T (the paper's 3 iterations of 64); the exploration "
+        "fields are unused (a plan's action is the policy's mean, no noise).",
+    )
+    plane: PlaneFitConfig = doc(factory=PlaneFitConfig, text="The table plane's fit (no camera pose given).")
+    segment: SegmentConfig = doc(factory=SegmentConfig, text="What counts as an object on the table.")
+    alternatives: NMSConfig = doc(
+        factory=lambda: NMSConfig(radius=0.03, symmetric_jaw=False),
+        text="Alternatives are at least this far apart from each other and from the chosen grasp (both jaw "
+        "orientations count as different grasps: the task cares which way round the tool is held).",
+    )
+    top: int = doc(3, "Alternatives reported beside the chosen grasp.")
+    low_score: float = doc(
+        0.3, "Below this best Q_T the plan warns that there is no good grasp for the task on this object."
+    )
+    network_camera_height: float | None = doc(
+        SIM_CAMERA_HEIGHT,
+        "The network's gripper-depth input z is the grasp centre's depth from a camera looking straight down "
+        "from this height (m) above the table: the training camera's (the simulator's nominal height), so a "
+        "camera at 0.5-1.5 m or tilted gives in-distribution z. None: the image camera's own depth of the "
+        "grasp centre, as the simulator's planners use (only right for a camera like the simulator's).",
+    )
+    seed: int = doc(0, "Seed of the sampler and the search: a plan is reproducible from its inputs and this.")
+
+    def __post_init__(self) -> None:
+        if self.top < 0:
+            raise ValueError(f"top must be 0 or more, got {self.top}")
+        if self.network_camera_height is not None and not self.network_camera_height > 0:
+            raise ValueError(f"network_camera_height must be positive, got {self.network_camera_height}")
+
+
+@dataclass(frozen=True)
+class PlannedGrasp:
+    """One planned grasp in every frame, its scores and its action.
+
+    ``table``: (x, y, z, phi) in the table frame (m, rad; the gripper points down along -z, phi the jaw
+    axis' yaw); ``world``: the same in the world frame (None without a camera pose); ``camera_from_gripper``:
+    4 x 4 pose in the camera frame (gripper x = jaw axis, z = the table's up, origin at the grasp centre);
+    ``pixel``: (u, v) of the grasp centre. ``action``: (a_x, a_y, a_z, a_phi), the start pose of the task's
+    motion relative to its reference point; ``start_offset`` / ``start_yaw``: the start position minus the
+    reference point (m) and the absolute start yaw (rad) it means (task frame axes); ``start_position``: the
+    absolute start position when a reference point was given (same frame as ``world`` or else ``table``)."""
+
+    table: NDArray[np.float64]
+    camera_from_gripper: NDArray[np.float64]
+    world: NDArray[np.float64] | None
+    pixel: NDArray[np.float64]
+    q_g: float
+    q_t_given_g: float
+    q_t: float
+    action: NDArray[np.float64]
+    start_offset: NDArray[np.float64]
+    start_yaw: float
+    start_position: NDArray[np.float64] | None = None
+
+    @property
+    def camera_position(self) -> NDArray[np.float64]:
+        """Grasp centre in the camera frame (m)."""
+        return self.camera_from_gripper[:3, 3].copy()
+
+    @property
+    def camera_jaw_axis(self) -> NDArray[np.float64]:
+        """Unit jaw axis (from phi's negative to positive finger) in the camera frame."""
+        return self.camera_from_gripper[:3, 0].copy()
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready description."""
+        r = _rounded
+        names = ("x", "y", "z", "phi")
+        return {
+            "table": dict(zip(names, r(self.table), strict=True)),
+            "world": None if self.world is None else dict(zip(names, r(self.world), strict=True)),
+            "camera": {"position": r(self.camera_position), "jaw_axis": r(self.camera_jaw_axis),
+                       "approach": r(-self.camera_from_gripper[:3, 2]),
+                       "camera_from_gripper": r(self.camera_from_gripper)},
+            "pixel": r(self.pixel, 1),
+            "q_g": r(self.q_g), "q_t_given_g": r(self.q_t_given_g), "q_t": r(self.q_t),
+            "action": r(self.action),
+            "start_pose": {"offset_from_reference": r(self.start_offset), "yaw": r(self.start_yaw),
+                           "position": None if self.start_position is None else r(self.start_position)},
+        }
+
+
+@dataclass(frozen=True)
+class UserPlan:
+    """A plan on a user's depth image: the chosen grasp and action, alternatives, frames and diagnostics.
+
+    ``timing``: seconds per stage (read, table, objects, candidates, grasp, action) and ``total`` (the model's
+    loading is not part of it). ``warnings``: one line each (several objects, low Q_T, ...)."""
+
+    task: str
+    grasp: PlannedGrasp
+    alternatives: list[PlannedGrasp]
+    table_from_camera: NDArray[np.float64]
+    world_from_camera: NDArray[np.float64] | None
+    plane: TablePlane
+    objects: list[dict[str, Any]]
+    candidates: int
+    evaluated: int
+    timing: dict[str, float]
+    warnings: list[str] = field(default_factory=list)
+    checkpoint: str | None = None
+    seed: int = 0
+    intrinsics: CameraIntrinsics | None = None
+
+    @property
+    def action(self) -> NDArray[np.float64]:
+        """The chosen grasp's action (a_x, a_y, a_z, a_phi)."""
+        return self.grasp.action
+
+    @property
+    def camera(self) -> Camera | None:
+        """The camera in the table frame (what the plan was computed with)."""
+        return None if self.intrinsics is None else Camera(self.intrinsics, self.table_from_camera)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready description of everything (``tognet plan --out``)."""
+        return {
+            "task": self.task,
+            "checkpoint": self.checkpoint,
+            "seed": self.seed,
+            "grasp": self.grasp.to_dict(),
+            "alternatives": [g.to_dict() for g in self.alternatives],
+            "warnings": list(self.warnings),
+            "frames": {
+                "table": "z up along the table's normal, origin on the table top below the camera's centre, "
+                         "x along the image's x axis laid onto the table",
+                "camera": "OpenCV: x right, y down, z forward (viewing direction)",
+                "world": "the camera pose's world frame (z = 0: the table top)" if self.world_from_camera
+                is not None else None,
+                "table_from_camera": _rounded(self.table_from_camera, 6),
+                "world_from_camera": None if self.world_from_camera is None
+                else _rounded(self.world_from_camera, 6),
+                "action": "start pose of the task's motion relative to its reference point (hammering: the "
+                          "peg's centre; sweeping: the cans' mean), task frame axes",
+            },
+            "table_plane": {"source": "fitted" if self.plane.fitted else "camera pose",
+                            "camera_height_m": _rounded(self.plane.offset),
+                            "tilt_deg": _rounded(self.plane.tilt, 2),
+                            "inlier_fraction": _rounded(self.plane.inliers, 3),
+                            "rms_m": _rounded(self.plane.rms, 5)},
+            "objects": self.objects,
+            "candidates": self.candidates,
+            "evaluated": self.evaluated,
+            "timing_ms": {k: round(1000 * v, 2) for k, v in self.timing.items()},
+        }
+
+    def save(self, path: str | Path) -> Path:
+        """Write :meth:`to_dict` as JSON (atomically: a reader never sees half a file)."""
+        return write_atomic(path, (json.dumps(self.to_dict(), indent=2) + "\n").encode())
+
+
+def write_atomic(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` through a temporary file and a rename."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        tmp.write_bytes(data)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
+
+
+def _rounded(value: Any, digits: int = 4) -> Any:
+    if isinstance(value, np.ndarray):
+        return np.round(value.astype(np.float64), digits).tolist()
+    return round(float(value), digits)
+
+
+@dataclass
+class _UserView(SceneView):
+    """The policies' view of a user's image: the network's z from a virtual overhead camera, and every
+    grasp the policies crop recorded (with :class:`_Recording`, their predictions)."""
+
+    network_height: float | None = None
+    record: list[NDArray[np.float64]] | None = None
+
+    def crops(self, grasps: NDArray[np.float64]) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+        """Crops of ``grasps`` (table frame) and the z the network is given."""
+        if self.network_height is None:
+            crops, z = super().crops(grasps)
+        else:
+            crops = extract_crops(self.scene, None, grasps, self.crop)
+            z = (self.network_height - np.asarray(grasps, dtype=np.float64)[:, 2]).astype(np.float32)
+        if self.record is not None:
+            self.record.append(np.asarray(grasps, dtype=np.float64))
+        return crops, z
+
+
+class _Recording:
+    """A predictor that keeps every prediction it makes (the search's scores, for the alternatives)."""
+
+    def __init__(self, model: Any) -> None:
+        self.model = model
+        self.predictions: list[Any] = []
+
+    def predict(self, crops: NDArray[np.float32], z: NDArray[np.float32]) -> Any:
+        pred = self.model.predict(crops, z)
+        self.predictions.append(pred)
+        return pred
+
+
+def _load_predictor(task: str, checkpoint: Any, num_threads: int | None) -> tuple[Any, str | None]:
+    """The predictor for ``task`` from a path (or the shipped model), checked to be a ``task`` model."""
+    if checkpoint is not None and not isinstance(checkpoint, str | Path):
+        predictor, where = checkpoint, getattr(checkpoint, "info", {}).get("path")
+    else:
+        from tognet.model.predict import TOGNetPredictor
+        from tognet.models import default_checkpoint
+
+        path = Path(checkpoint) if checkpoint is not None else default_checkpoint(task)
+        if path.is_dir():
+            raise PlanInputError(f"checkpoint {path} is a folder; give its best.pt")
+        if not path.is_file():
+            raise FileNotFoundError(f"checkpoint not found: {path}")
+        predictor, where = TOGNetPredictor.load(path, num_threads=num_threads), str(path)
+    trained = getattr(predictor, "task", None)
+    if trained is not None and trained != task:
+        kind = "the grasp-only model (Q_G, no task)" if trained == "grasping" else f"a {trained} model"
+        raise PlanInputError(f"checkpoint {where} is {kind}; planning for {task} needs a {task} model")
+    return predictor, where
+
+
+def _distinct(grasps: NDArray[np.float64], scores: NDArray[np.float64], k: int, config: NMSConfig
+              ) -> NDArray[np.intp]:
+    """Indices of up to ``k`` grasps, best score first, each at least ``config.radius`` from those before
+    (NMS's distance, :func:`tognet.grasping.nms`): greedy, k passes, not the N x N distance matrix."""
+    order = np.argsort(-scores, kind="stable")
+    alive = np.ones(len(grasps), dtype=bool)
+    period = np.pi if config.symmetric_jaw else 2 * np.pi
+    out: list[int] = []
+    while len(out) < k:
+        left = order[alive[order]]
+        if left.size == 0:
+            break
+        i = int(left[0])
+        out.append(i)
+        dp = grasps[:, :3] - grasps[i, :3]
+        da = angle_difference(grasps[:, 3], grasps[i, 3], period) * config.angle_scale
+        alive &= np.einsum("ij,ij->i", dp, dp) + da * da >= config.radius**2
+    return np.asarray(out, dtype=np.intp)
+
+
+def _grasp_frames(table_grasps: NDArray[np.float64], camera_from_table: NDArray[np.float64]
+                  ) -> NDArray[np.float64]:
+    """(N, 4, 4) camera_from_gripper of table-frame grasps."""
+    n = len(table_grasps)
+    c, s = np.cos(table_grasps[:, 3]), np.sin(table_grasps[:, 3])
+    gripper = np.zeros((n, 4, 4))
+    gripper[:, 0, 0], gripper[:, 1, 0] = c, s
+    gripper[:, 0, 1], gripper[:, 1, 1] = -s, c
+    gripper[:, 2, 2] = 1.0
+    gripper[:, :3, 3] = table_grasps[:, :3]
+    gripper[:, 3, 3] = 1.0
+    return camera_from_table[None] @ gripper
+
+
+class UserPlanner:
+    """A loaded TOG-Net for one task, planning on users' depth images (see the module docstring).
+
+    ``checkpoint``: a path (default: the shipped model of ``task``) or a loaded predictor. ``num_threads``:
+    torch's CPU threads (process-wide), set on loading; 1 by default (see ``TOGNetPredictor.load``)."""
+
+    def __init__(self, task: str, checkpoint: Any = None, config: UserPlanConfig | None = None,
+                 num_threads: int | None = 1) -> None:
+        if task not in TASK_NAMES:
+            raise PlanInputError(f"unknown task '{task}'; known: {', '.join(TASK_NAMES)}")
+        self.task_name = task
+        self.task: Task = get_task(task)
+        self.config = config or UserPlanConfig()
+        self.predictor, self.checkpoint = _load_predictor(task, checkpoint, num_threads)
+        p = self.predictor
+        crop = getattr(p, "crop_config", None)
+        if crop is None:
+            arch = getattr(getattr(p, "model", None), "arch", None)
+            crop = CropConfig(size=getattr(p, "crop_size", 64), center_size=getattr(arch, "center_size", 32))
+        check_predictor_crops(p, crop, str(self.checkpoint))
+        self.crop: CropConfig = crop
+
+    # --- inputs ------------------------------------------------------------------------------------------
+    @staticmethod
+    def read_inputs(depth: Any, intrinsics: Any, camera_pose: Any = None
+                    ) -> tuple[NDArray[np.float32], CameraIntrinsics, NDArray[np.float64] | None]:
+        """The depth image (float32 metres, NaN holes), intrinsics and pose, checked against each other."""
+        where = str(depth) if isinstance(depth, str | Path) else "depth image"
+        k = load_intrinsics(intrinsics)
+        pose = None if camera_pose is None else load_camera_pose(camera_pose)
+        raw = load_depth_file(depth) if isinstance(depth, str | Path) else np.asarray(depth)
+        if raw.dtype.kind not in "fiu":
+            raise DepthImageError(f"{where}: depth image must be numeric, got dtype {raw.dtype}")
+        if raw.ndim == 3 and raw.shape[-1] == 1:
+            raw = raw[..., 0]
+        if raw.ndim != 2:
+            raise DepthImageError(f"{where}: depth image must be 2-D (height, width), got shape {raw.shape}")
+        if raw.size == 0:
+            raise DepthImageError(f"{where}: the depth image is empty (shape {raw.shape})")
+        check_image_size(raw.shape, k, where)
+        integer = raw.dtype.kind in "iu" and not isinstance(depth, str | Path)
+        if integer:  # an integer array handed in directly: millimetres, as the files are read
+            raw = raw.astype(np.float32) / 1000.0
+        try:
+            valid = validate_depth(raw, k, min_depth=0.1, max_depth=5.0)
+        except DepthImageError as exc:
+            text = str(exc)
+            if "millimetres" in text:
+                text += " (float images are read as metres)"
+            elif "below" in text:
+                text += " (16-bit PNGs and integer arrays are read as millimetres: metres as integers?)"
+            raise DepthImageError(f"{where}: {text}") from None
+        return valid, k, pose
+
+    # --- the plan ----------------------------------------------------------------------------------------
+    def plan(self, depth: Any, intrinsics: Any, camera_pose: Any = None, reference: ArrayLike | None = None,
+             seed: int | None = None) -> UserPlan:
+        """Plan on one depth image (see the module docstring). ``depth``: a file path or an array (float
+        metres or integer millimetres); ``intrinsics``: a file, dict or CameraIntrinsics; ``camera_pose``:
+        None, a file or a 4 x 4 world_from_camera; ``reference``: the task's reference point (world frame
+        with a camera pose, else table frame) for the absolute start pose."""
+        cfg = self.config
+        timing: dict[str, float] = {}
+        warnings: list[str] = []
+        t0 = time.perf_counter()
+        valid, k, pose = self.read_inputs(depth, intrinsics, camera_pose)
+        t1 = time.perf_counter()
+        plane = plane_from_pose(pose) if pose is not None else fit_table_plane(valid, k, cfg.plane)
+        table_from_camera = plane.table_from_camera()
+        camera = Camera(k, table_from_camera)
+        holes = ~np.isfinite(valid)
+        filled = fill_holes(valid, holes)
+        height = height_map(filled, camera)
+        if pose is not None:
+            self._check_pose(height[::3, ::3][~holes[::3, ::3]], valid, k, plane)
+        t2 = time.perf_counter()
+        found = segment_objects(height, filled, k, table_from_camera, cfg.segment)
+        if not found:
+            raise NoObjectError(
+                f"no object on the table: nothing rises {1000 * cfg.segment.min_height:.0f} mm above the "
+                f"table plane over {1e4 * cfg.segment.min_area:.0f} cm^2 (the table "
+                f"{'from the camera pose' if pose is not None else 'fitted'} {plane.offset:.3f} m below the "
+                f"camera, tilted {plane.tilt:.1f} degrees)"
+            )
+        if len(found) > 1:
+            others = np.zeros_like(found[0].mask)
+            for obj in found[1:]:
+                others |= obj.mask
+            filled = mask_to_table(filled, others, plane, k, cfg.segment.mask_margin)
+            valid = np.where(np.isfinite(valid), filled, valid).astype(np.float32)
+            height = height_map(filled, camera)
+            areas = ", ".join(f"{o.area * 1e4:.0f}" for o in found)
+            warnings.append(f"{len(found)} objects on the table (areas {areas} cm^2): planning on the "
+                            f"largest, at table ({found[0].centre[0]:.3f}, {found[0].centre[1]:.3f}); the "
+                            "others are ignored")
+        if found[0].touches_border:
+            warnings.append("the object touches the image border: part of it may be out of view")
+        scene = DepthScene(camera, valid, filled, height, holes)
+        t3 = time.perf_counter()
+        rng = np.random.default_rng(cfg.seed if seed is None else seed)
+        cands = sample_antipodal(scene, None, cfg.antipodal, rng)
+        if len(cands) == 0:
+            raise PlanInputError(
+                f"no antipodal grasp candidate on the object (area {found[0].area * 1e4:.0f} cm^2, "
+                f"{1000 * found[0].height:.0f} mm high): wider than the gripper's "
+                f"{1000 * cfg.antipodal.max_width:.0f} mm opening everywhere, or too flat to hold?"
+            )
+        t4 = time.perf_counter()
+        record: list[NDArray[np.float64]] = []
+        view = _UserView(scene, cands, self.task, self.crop, network_height=cfg.network_camera_height,
+                         record=record)
+        recording = _Recording(self.predictor)
+        _, best_score = CEMGrasp(cfg.policy, recording, kind="task").best(view, rng)
+        view.record = None
+        t5 = time.perf_counter()
+        grasps = np.concatenate(record)
+        preds = recording.predictions
+        q_g = np.concatenate([p.q_g for p in preds]).astype(np.float64)
+        q_tg = np.concatenate([p.q_t_given_g for p in preds]).astype(np.float64)
+        q_t = np.concatenate([p.q_t for p in preds]).astype(np.float64)
+        chosen = _distinct(grasps, q_t, cfg.top + 1, cfg.alternatives)  # [0]: CEM's best, its top score
+        actions = PolicyActions(self.predictor)(view, grasps[chosen], rng).actions
+        t6 = time.perf_counter()
+        if best_score < cfg.low_score:
+            warnings.append(f"no good grasp for this task on this object: the best Q_T is {best_score:.2f} "
+                            f"(below {cfg.low_score:g})")
+        camera_from_table = np.linalg.inv(table_from_camera)
+        frames = _grasp_frames(grasps[chosen], camera_from_table)
+        uv, _ = camera.project(grasps[chosen, :3])
+        world_from_table = None if pose is None else pose @ camera_from_table
+        ref = None if reference is None else np.asarray(reference, dtype=np.float64).reshape(3)
+        tc = self.task.config
+        out = []
+        for j, i in enumerate(chosen):
+            world = None
+            if world_from_table is not None:
+                g = grasps[i]
+                p = world_from_table @ np.array([g[0], g[1], g[2], 1.0])
+                axis = world_from_table[:3, :3] @ np.array([math.cos(g[3]), math.sin(g[3]), 0.0])
+                world = np.array([p[0], p[1], p[2], math.atan2(axis[1], axis[0]) % (2 * math.pi)])
+            offset = np.asarray(tc.nominal_offset, dtype=np.float64) + actions[j, :3]
+            out.append(PlannedGrasp(
+                table=grasps[i].copy(), camera_from_gripper=frames[j], world=world, pixel=uv[j],
+                q_g=float(q_g[i]), q_t_given_g=float(q_tg[i]), q_t=float(q_t[i]), action=actions[j].copy(),
+                start_offset=offset, start_yaw=float(tc.nominal_yaw + actions[j, 3]),
+                start_position=None if ref is None else ref + offset,
+            ))
+        timing.update(read=t1 - t0, table=t2 - t1, objects=t3 - t2, candidates=t4 - t3, grasp=t5 - t4,
+                      action=t6 - t5, total=time.perf_counter() - t0)
+        return UserPlan(
+            task=self.task_name, grasp=out[0], alternatives=out[1:], table_from_camera=table_from_camera,
+            world_from_camera=pose, plane=plane, objects=[o.describe() for o in found], candidates=len(cands),
+            evaluated=len(grasps), timing=timing, warnings=warnings, checkpoint=self.checkpoint,
+            seed=cfg.seed if seed is None else seed, intrinsics=k,
+        )
+
+    def _check_pose(self, heights: NDArray[np.float32], valid: NDArray[np.float32], k: CameraIntrinsics,
+                    plane: TablePlane) -> None:
+        """PlanInputError when the camera pose's table (world z = 0) is not the table the image shows."""
+        cfg = self.config.plane
+        on = float(np.mean(np.abs(heights) < np.float32(cfg.inlier_distance)))
+        if on >= cfg.min_inliers:
+            return
+        try:
+            seen = fit_table_plane(valid, k, cfg)
+            found = (f"the image's table is {seen.offset:.3f} m below the camera, tilted {seen.tilt:.1f} "
+                     f"degrees; the pose's {plane.offset:.3f} m, {plane.tilt:.1f} degrees")
+        except TognetError:
+            found = "no table plane found in the image either"
+        raise PlanInputError(
+            f"the camera pose does not match the image: {100 * on:.0f} % of the pixels lie on its table "
+            f"(world z = 0; at least {100 * cfg.min_inliers:.0f} % expected): {found}. Is world z = 0 the "
+            "table top, in metres, and the pose world_from_camera?"
+        )
+
+    def plan_observation(self, observation: Any, use_pose: bool = True, seed: int | None = None) -> UserPlan:
+        """Plan on a simulator :class:`tognet.sim.Observation` (its depth image and camera; the camera's pose
+        withheld when ``use_pose`` is False, as for a user without one)."""
+        cam = observation.camera
+        return self.plan(observation.depth, cam.intrinsics, cam.pose if use_pose else None, seed=seed)
+
+
+_PLANNERS: dict[tuple[str, str, str], UserPlanner] = {}
+
+
+def plan_image(depth: Any, intrinsics: Any, task: str, camera_pose: Any = None, checkpoint: Any = None,
+               *, reference: ArrayLike | None = None, top: int | None = None, seed: int | None = None,
+               config: UserPlanConfig | None = None) -> UserPlan:
+    """Plan a task-oriented grasp and motion on a depth image in one call (``tognet.plan``).
+
+    ``depth``: a .png/.npy/.npz path or an array; ``intrinsics``: a JSON path, dict or CameraIntrinsics;
+    ``camera_pose``: None (the table plane is fitted), a JSON path or a 4 x 4 world_from_camera;
+    ``checkpoint``: a path or loaded predictor (default: the shipped model of ``task``). The model loaded
+    from a path is kept for the next call with the same path and settings."""
+    cfg = config or UserPlanConfig()
+    if top is not None:
+        cfg = cfg.replace(top=top)
+    if checkpoint is None or isinstance(checkpoint, str | Path):
+        key = (task, str(checkpoint), json.dumps(cfg.to_dict(), sort_keys=True))
+        planner = _PLANNERS.get(key)
+        if planner is None:
+            planner = _PLANNERS[key] = UserPlanner(task, checkpoint, cfg)
+    else:
+        planner = UserPlanner(task, checkpoint, cfg)
+    return planner.plan(depth, intrinsics, camera_pose, reference=reference, seed=seed)
