@@ -251,6 +251,30 @@ def _smoothed_step_gain(sigma: float) -> float:
     return float(np.max(s[2:] - s[:-2]))  # (difference / 2) / 0.5
 
 
+def _above_table(filled: NDArray[np.float32], camera: Camera, table_z: float, thresh: float
+                 ) -> NDArray[np.float32]:
+    """``filled`` minus the depth at which each pixel's ray meets the table plane (world z = ``table_z``),
+    so that a tilted camera's table reads a constant. ``filled`` itself where that does not matter: when
+    the table's depth changes by less than a tenth of ``thresh`` per pixel anywhere in the image (a camera
+    within a few degrees of straight down, as the simulator's, whose candidates stay exactly as before),
+    or when some ray misses the table (a camera tilted towards the horizon, or level with the table)."""
+    k = camera.intrinsics
+    r = camera.pose[:3, :3]
+    height = float(camera.pose[2, 3]) - table_z
+    xn = ((np.arange(k.width) - k.cx) / k.fx).astype(np.float32)
+    yn = ((np.arange(k.height) - k.cy) / k.fy).astype(np.float32)
+    # dz is affine in (xn, yn): its extremes, and the ramp's steepest slope, are at the image corners.
+    cx, cy = np.meshgrid(xn[[0, -1]].astype(np.float64), yn[[0, -1]].astype(np.float64))
+    dz = r[2, 0] * cx + r[2, 1] * cy + r[2, 2]
+    if height <= 0 or not np.all(dz < -1e-3):
+        return filled
+    slope = height * np.hypot(r[2, 0] / k.fx, r[2, 1] / k.fy) / dz**2  # |d depth / d pixel| of the table
+    if slope.max() < 0.1 * thresh:
+        return filled
+    dz_img = np.float32(r[2, 0]) * xn[None, :] + np.float32(r[2, 1]) * yn[:, None] + np.float32(r[2, 2])
+    return (filled + np.float32(height) / dz_img).astype(np.float32)  # depth - (-height / dz)
+
+
 def _edge_pixels(filled: NDArray[np.float32], thresh: float) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """Rows and columns of pixels whose depth gradient exceeds ``thresh``, and the gradient images."""
     gx = np.zeros_like(filled)
@@ -303,9 +327,14 @@ def sample_antipodal(
     filled = scene.filled
     h, w = filled.shape
 
-    smooth, thresh = filled, config.depth_grad_thresh
+    # Edges are depth steps relative to the table: a tilted camera sees the table's own depth change
+    # across the image (2 mm per pixel for a Kinect2 25 degrees from vertical at 1.5 m, about the
+    # threshold, and no candidate was left), so the table's depth along each ray is taken off first when
+    # it matters. Contacts, heights and scans still read the depth itself.
+    rel = _above_table(filled, cam, config.table_z, config.depth_grad_thresh)
+    smooth, thresh = rel, config.depth_grad_thresh
     if config.edge_smoothing > 0:
-        smooth = _gaussian_smooth(filled, config.edge_smoothing)
+        smooth = _gaussian_smooth(rel, config.edge_smoothing)
         # A blurred step has a lower peak gradient: scale the threshold so that the same step heights
         # pass as without smoothing (the raw-step test below keeps the original threshold).
         thresh *= _smoothed_step_gain(config.edge_smoothing)
@@ -317,13 +346,13 @@ def sample_antipodal(
     ex, ey = gx[rows, cols], gy[rows, cols]
     gnorm = np.hypot(ex, ey)
     nu, nv = ex / gnorm, ey / gnorm
-    ahead = filled[rows + np.rint(nv).astype(np.intp), cols + np.rint(nu).astype(np.intp)]
-    near = ahead > filled[rows, cols] + np.float32(0.5 * config.depth_grad_thresh)
-    if smooth is not filled:
+    ahead = rel[rows + np.rint(nv).astype(np.intp), cols + np.rint(nu).astype(np.intp)]
+    near = ahead > rel[rows, cols] + np.float32(0.5 * config.depth_grad_thresh)
+    if smooth is not rel:
         # Smoothing widens the edge band; keep only pixels with a step in the raw image too (noise alone
         # rarely makes one next to a smoothed edge), so the pair count stays that of the raw edges.
-        rgx = (filled[rows, cols + 1] - filled[rows, cols - 1]) * np.float32(0.5)
-        rgy = (filled[rows + 1, cols] - filled[rows - 1, cols]) * np.float32(0.5)
+        rgx = (rel[rows, cols + 1] - rel[rows, cols - 1]) * np.float32(0.5)
+        rgy = (rel[rows + 1, cols] - rel[rows - 1, cols]) * np.float32(0.5)
         near &= rgx * rgx + rgy * rgy > np.float32(config.depth_grad_thresh**2)
     rows, cols = rows[near], cols[near]
     if rows.size < 2:
