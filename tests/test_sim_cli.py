@@ -9,12 +9,34 @@ from typer.testing import CliRunner
 from tognet.cli import app
 
 
-def test_sim_command_runs_an_episode_and_writes_the_depth_image(tmp_path):
+def test_sim_command_runs_an_episode_and_writes_what_plan_reads(tmp_path):
+    from PIL import Image
+
+    from tognet.planning.camera import load_camera_pose, load_intrinsics
+
     out = tmp_path / "depth.png"
     result = CliRunner().invoke(app, ["sim", "--task", "sweeping", "--depth-png", str(out), "--seed", "2"])
     assert result.exit_code == 0, result.output
-    assert "default grasp" in result.output and "grasp_success=" in result.output
-    assert out.stat().st_size > 1000
+    assert "grasp_success=" in result.output and "tognet plan --depth" in result.output
+    with Image.open(out) as img:  # 16-bit millimetres, not a picture
+        assert img.mode.startswith("I;16") or img.mode == "I"
+        mm = np.asarray(img)
+    k = load_intrinsics(tmp_path / "depth.intrinsics.json")
+    pose = load_camera_pose(tmp_path / "depth.pose.json")
+    assert mm.shape == k.shape and 600 < np.median(mm[mm > 0]) < 800
+    assert 0.6 < pose[2, 3] < 0.8
+
+
+@pytest.mark.parametrize("task", ["hammering", "sweeping"])
+def test_a_first_run_with_default_arguments_shows_a_success_and_what_it_did(task):
+    args = ["sim"] if task == "hammering" else ["sim", "--task", task]  # hammering is the default task
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    assert "task_success=True" in result.output, result.output
+    grasp = [line for line in result.output.splitlines() if line.startswith("grasp: ")]
+    action = [line for line in result.output.splitlines() if line.startswith("action: ")]
+    assert len(grasp) == 1 and len(action) == 1, result.output
+    assert len(grasp[0].split()[1:5]) == 4 and len(action[0].split()[1:5]) == 4
 
 
 def test_sim_command_rejects_unknown_objects(tmp_path):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import typer
 
@@ -18,6 +19,60 @@ def _short(value: object) -> object:
     if isinstance(value, (list, tuple)):
         return [_short(v) for v in value]
     return value
+
+
+def search_trial(sim: Any, grasp: Any, action: Any, trial_seed: int, tool: str | None,
+                 max_trials: int = 12) -> tuple[Any, Any, int, bool]:
+    """A (grasp, action) for a first run that shows a success: the given grasp or candidates (a hand-made
+    tool's known good grasp first, then the default grasp held either way round), each with the given
+    action or the oracle's hand-computed ones (:mod:`tognet.sim.oracle`), tried in the simulator on
+    ``trial_seed`` until one succeeds (at most ``max_trials``). Returns (grasp, action, tried, found); not
+    found: the first pair tried."""
+    import numpy as np
+
+    from tognet.geometry import Grasp
+    from tognet.sim.checks import HAMMER_GRASPS, SWEEP_GRASPS, hammer_action, sweep_action
+    from tognet.sim.oracle import hammer_actions, sweep_actions
+    from tognet.sim.tools import grasp_on_object
+
+    hammering = sim.task_name == "hammering"
+    pairs: list[tuple[Any, Any]] = []
+    if grasp is not None:
+        grasps = [grasp]
+    else:
+        grasps = []
+        pos, rot = sim.object_pose()
+        known = {"t_hammer": ("far_end",), "l_tool": ("short_end",)}.get(tool or "", ())
+        for name in known:
+            spec = (HAMMER_GRASPS if hammering else SWEEP_GRASPS)[name]
+            g = grasp_on_object(pos, rot, spec[0], spec[1])
+            grasps.append(g)
+            if action is None:
+                pairs.append((g, hammer_action(sim, name) if hammering else sweep_action(sim, name)))
+        d = sim.default_grasp()
+        grasps += [d, Grasp(d.x, d.y, d.z, float((d.phi + np.pi) % (2 * np.pi)))]
+    for g in grasps:
+        if action is not None:
+            pairs.append((g, np.asarray(action, dtype=np.float64)))
+        else:
+            pairs += [(g, a) for a in (hammer_actions(sim, g) if hammering else sweep_actions(sim, g))]
+    tried = 0
+    for g, a in pairs[:max_trials]:
+        try:
+            result = sim.execute(g, a, trial_seed)
+        except ValueError:  # out of the gripper's reach
+            continue
+        tried += 1
+        if result.task_success:
+            return g, a, tried, True
+    return pairs[0][0], pairs[0][1], tried, False
+
+
+def depth_files(depth_png: Path) -> tuple[Path, Path]:
+    """The intrinsics and camera-pose files written beside ``--depth-png`` (``<stem>.intrinsics.json``,
+    ``<stem>.pose.json``): what ``tognet plan --intrinsics/--camera-pose`` reads."""
+    return (depth_png.with_name(f"{depth_png.stem}.intrinsics.json"),
+            depth_png.with_name(f"{depth_png.stem}.pose.json"))
 
 
 def register(app: typer.Typer) -> None:
@@ -44,7 +99,9 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(0, help="Scene seed (object drop, camera, props)."),
         trial_seed: int = typer.Option(0, help="Execution-noise seed of the trial."),
         gif: Path | None = typer.Option(None, help="Write an animation of the episode here (.gif)."),
-        depth_png: Path | None = typer.Option(None, help="Write the depth image here (.png)."),
+        depth_png: Path | None = typer.Option(
+            None, help="Write the depth image here as a 16-bit PNG in millimetres, with "
+            "<stem>.intrinsics.json and <stem>.pose.json beside it: what `tognet plan` reads."),
         config: Path | None = typer.Option(None, help="SimConfig JSON (default: built-in)."),
     ) -> None:
         """Run one episode (drop, depth image, grasp, lift, task primitive), print the labels, animate it."""
@@ -82,21 +139,16 @@ def register(app: typer.Typer) -> None:
             sim = Simulator(cfg, task, obj)
             obs = sim.reset(seed)
             if depth_png is not None:
-                from PIL import Image
+                from tognet.planning.camera import save_camera_pose, save_depth_png, save_intrinsics
 
-                d = obs.depth
-                lo, hi = np.nanmin(d), np.nanmax(d)
-                img = np.nan_to_num((hi - d) / max(hi - lo, 1e-6) * 255, nan=0).astype(np.uint8)
-                depth_png.parent.mkdir(parents=True, exist_ok=True)
-                Image.fromarray(img).save(depth_png)
-                typer.echo(f"depth image -> {depth_png}")
-            if grasp is None:
-                g = sim.default_grasp()
-                typer.echo(
-                    f"no --grasp given: using the default grasp at the centre of mass across the narrow "
-                    f"side: {g.x:.3f} {g.y:.3f} {g.z:.3f} {g.phi:.3f}"
-                )
-            else:
+                intr, pose = depth_files(depth_png)
+                save_depth_png(depth_png, obs.depth)
+                save_intrinsics(intr, obs.camera.intrinsics)
+                save_camera_pose(pose, obs.camera.pose)
+                typer.echo(f"depth image (16-bit millimetres) -> {depth_png}, intrinsics -> {intr}, camera "
+                           f"pose -> {pose}; plan on it: tognet plan --depth {depth_png} --intrinsics {intr} "
+                           f"--camera-pose {pose} --task {task if task != 'grasping' else 'hammering'}")
+            if grasp is not None:
                 g = Grasp.from_array(grasp)
                 half = 0.5 * np.asarray(cfg.world.table_size)
                 if abs(g.x) > half[0] or abs(g.y) > half[1]:
@@ -105,7 +157,26 @@ def register(app: typer.Typer) -> None:
                         f"(|x| <= {half[0]:.2f}, |y| <= {half[1]:.2f}); the object lies at "
                         f"{', '.join(f'{v:.3f}' for v in sim.object_pose()[0][:2])}"
                     )
-            a = np.zeros(4) if action is None else np.asarray(action, dtype=np.float64)
+            if task == "grasping":
+                g = sim.default_grasp() if grasp is None else g
+                a = np.zeros(4)
+                if grasp is None:
+                    typer.echo("no --grasp given: the default grasp at the centre of mass, across the narrow "
+                               "side")
+            elif grasp is None or action is None:
+                g, a, tried, found = search_trial(sim, None if grasp is None else g, action, trial_seed,
+                                                  obj.object_id if objects is None else None)
+                given = "--grasp and --action" if grasp is None and action is None else \
+                    ("--grasp" if grasp is None else "--action")
+                typer.echo(f"no {given} given: tried {tried} (grasp, action) pair(s) from the hand-computed "
+                           f"oracle (tognet.sim.oracle); " + ("showing the first that succeeded" if found else
+                                                             "none succeeded, showing the first"))
+            else:
+                a = np.asarray(action, dtype=np.float64)
+            typer.echo(f"grasp:  {g.x:.4f} {g.y:.4f} {g.z:.4f} {g.phi:.4f}  (x y z m, phi rad; world frame)")
+            if task != "grasping":
+                typer.echo(f"action: {a[0]:.4f} {a[1]:.4f} {a[2]:.4f} {a[3]:.4f}  (a_x a_y a_z m, a_phi rad; "
+                           "relative to the task's reference point)")
             recorder = None
             if gif is not None:
                 from tognet.sim.render import GifRecorder
