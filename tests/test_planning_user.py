@@ -355,3 +355,24 @@ def test_bad_output_paths_are_refused_before_any_work(tmp_path, scene_files, che
                            (["--reference", "0", "nan", "0"], "--reference takes 3 finite numbers")):
         result = _cli(*base, *extra)
         assert result.exit_code == 2 and message in result.output, result.output
+
+
+def test_the_intrinsics_file_of_the_readme_and_its_variants(tmp_path):
+    from pathlib import Path
+
+    from tognet.planning.camera import CameraFileError
+
+    root = Path(__file__).resolve().parents[1]
+    k = load_intrinsics(root / "examples" / "intrinsics_realsense_d435.json")
+    assert k == SENSORS["realsense_d435"]
+    example = json.loads((root / "examples" / "intrinsics_realsense_d435.json").read_text())
+    assert json.dumps(example) in (root / "README.md").read_text()  # the README shows the example file
+    librealsense = {"width": 640, "height": 480, "ppx": 320.3, "ppy": 238.9, "fx": 615.0, "fy": 615.0,
+                    "model": "distortion.inverse_brown_conrady", "coeffs": [0, 0, 0, 0, 0]}
+    assert load_intrinsics(librealsense) == k
+    assert load_intrinsics({"intrinsics": librealsense, "pose": np.eye(4).tolist()}) == k
+    for change, message in (({"coeffs": [0.1, 0, 0, 0, 0]}, "non-zero distortion coefficients"),
+                            ({"f": 615.0}, "unknown key 'f'"), ({"width": 640.5}, "positive whole number"),
+                            ({"fx": -1.0}, "fx and fy must be positive"), ({"ppx": 900.0}, "outside the")):
+        with pytest.raises(CameraFileError, match=message):
+            load_intrinsics({**librealsense, **change})
