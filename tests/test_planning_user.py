@@ -156,14 +156,22 @@ def test_the_user_planner_is_the_evaluations_tognet_planner_on_the_same_view(pla
 
 # --- the table plane --------------------------------------------------------------------------------------
 @pytest.mark.parametrize("seed", [3, 11])
-def test_without_the_camera_pose_the_fitted_table_puts_the_grasp_within_5_mm_and_3_degrees(
-        seed, planner, tools):
+def test_without_the_camera_pose_the_grasp_is_within_5_mm_and_3_degrees(seed, planner, tools):
+    """The same simulated image, float and rounded to millimetres, planned with and without its camera
+    pose: the grasp planned on the fitted table lands within 5 mm and 3 degrees of the one planned with the
+    pose; the fit itself is within 0.2 degrees and 2 mm, and reading any planned grasp in the fitted frame
+    instead of the true one moves it by less than 5 mm and 3 degrees."""
     from tognet.sim import SimConfig, Simulator
 
     obs = Simulator(SimConfig(), TASK, tools["t_hammer"]).reset(seed)
     truth = plane_from_pose(obs.camera.pose)
     for depth in (obs.depth, (np.rint(obs.depth * 1000) / 1000).astype(np.float32)):  # as float, as PNG
         plan = planner.plan(depth, obs.camera.intrinsics)
+        known = planner.plan(depth, obs.camera.intrinsics, obs.camera.pose)
+        # the plan itself: the grasp planned without the pose, where it really is, against the one with it
+        p, yaw, _ = _world_of(plan.grasp.table, plan.table_from_camera, obs.camera.pose)
+        assert np.linalg.norm(p - known.grasp.world[:3]) < 0.005
+        assert math.degrees(_angle(yaw, known.grasp.world[3])) < 3.0
         fit = plan.plane
         assert fit.fitted and fit.inliers > 0.3
         assert math.degrees(math.acos(min(1.0, float(fit.normal @ truth.normal)))) < 0.2

@@ -56,9 +56,7 @@ def plan_cmd(
 ) -> None:
     """Plan a task-oriented grasp and the task's motion on one depth image from your own camera.
 
-    Prints the chosen grasp in the table frame (z up, origin below the camera), the camera frame and, with
-    --camera-pose, the world frame; its Q_G, Q_T|G and Q_T; the action (the start pose of the task's motion
-    relative to its reference point); the top alternatives and the time each stage took.
+    Prints the grasp (table, camera and world frames), Q_G, Q_T|G, Q_T, the action, alternatives, timing.
     """
     from tognet.planning.camera import load_camera_pose, load_intrinsics
     from tognet.planning.user import UserPlanConfig, UserPlanner
