@@ -130,6 +130,20 @@ def test_cem_snapped_to_candidates_only_evaluates_candidates():
         np.linalg.norm(initial[:, :2] - target[:2], axis=1))
 
 
+def test_cem_snapped_to_candidates_scores_each_candidate_once():
+    rng = np.random.default_rng(4)
+    initial = np.column_stack([rng.uniform(-0.1, 0.1, (120, 2)), np.full(120, 0.02), rng.uniform(0, 6, 120)])
+    calls = []
+
+    def score(g):
+        calls.append(len(g))
+        return _peak_score(np.array([0.0, 0.0, 0.02, 1.0]))(g)
+
+    result = cem(score, initial, CEMConfig(), rng)
+    assert calls == [120]  # the samples are candidates: their scores are looked up, not recomputed
+    np.testing.assert_array_equal(result.scores, score(result.grasps))
+
+
 def test_cem_bad_inputs():
     rng = np.random.default_rng(0)
     with pytest.raises(ValueError, match="initial"):

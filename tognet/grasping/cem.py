@@ -47,7 +47,8 @@ class CEMConfig(Config):
         "jaw angle at angle_radius metres per radian) before scoring, so the search never leaves the "
         "antipodal set. A learned Q_G has only seen antipodal grasps and scores grasps off that set too "
         "well: with free samples, the round-1 sweeping model's CEM grasps held the tool in 44 % of trials "
-        "against 96 % for the NMS modes (benchmarks/RESULTS.md).",
+        "against 96 % for the NMS modes (benchmarks/RESULTS.md). The samples' scores are then the "
+        "candidates' own, from the first scoring: score_fn is called once.",
     )
     z_bounds: tuple[float, float] | None = doc(
         (0.018, 1.0),
@@ -189,6 +190,7 @@ def cem(
     initial_wrapped = grasps.copy()
     initial_features = _features(initial_wrapped, config)
     scores = _score(score_fn, grasps)
+    initial_scores = scores
     all_g, all_s, all_it = [grasps], [scores], [np.zeros(len(grasps), dtype=np.intp)]
     for it in range(1, config.iterations + 1):
         n_elite = max(2, int(np.ceil(config.elite_fraction * len(grasps))))
@@ -202,8 +204,12 @@ def cem(
         )
         grasps = _grasps(gmm.sample(config.samples, rng), config)
         if config.snap_to_candidates:
-            grasps = initial_wrapped[_nearest(_features(grasps, config), initial_features)]
-        scores = _score(score_fn, grasps)
+            # Every sample is a candidate, scored in iteration 0: look its score up (score_fn is a function
+            # of the grasp; scoring 3 x 64 candidates again cost ~40 % of a plan's search).
+            nearest = _nearest(_features(grasps, config), initial_features)
+            grasps, scores = initial_wrapped[nearest], initial_scores[nearest]
+        else:
+            scores = _score(score_fn, grasps)
         all_g.append(grasps)
         all_s.append(scores)
         all_it.append(np.full(len(grasps), it, dtype=np.intp))
