@@ -1,9 +1,10 @@
 """Where jobs run: local worker processes by default, a Ray cluster when one machine is not enough.
 
-Both executors run the same :func:`tognet.collect.jobs.run_job` and hand each :class:`JobOutput` to the
-coordinator's callback as it arrives (in completion order; shards are named by job, so the order does not
-matter). A worker that dies (killed, out of memory, a crash inside MuJoCo) is reported and its jobs run
-again, up to ``max_retries`` times; after that the job is reported as failed and the round goes on.
+Both executors run the same :func:`tognet.collect.jobs.run_job` (or another module-level job function
+given as ``fn``, e.g. the evaluation's) and hand each :class:`JobOutput` to the coordinator's callback as
+it arrives (in completion order; shards are named by job, so the order does not matter). A worker that
+dies (killed, out of memory, a crash inside MuJoCo) is reported and its jobs run again, up to
+``max_retries`` times; after that the job is reported as failed and the round goes on.
 """
 
 from __future__ import annotations
@@ -15,9 +16,11 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Protocol
 
-from tognet.collect.jobs import Job, JobOutput, run_job
+from tognet.collect.jobs import JobOutput, run_job
 
-OnResult = Callable[[Job, JobOutput], None]
+OnResult = Callable[[Any, JobOutput], None]
+#: A job function: a picklable module-level function of a job (anything with ``index`` and ``obj``).
+JobFn = Callable[[Any], JobOutput]
 
 
 class Executor(Protocol):
@@ -25,7 +28,8 @@ class Executor(Protocol):
 
     workers: int
 
-    def run(self, jobs: list[Job], on_result: OnResult, log: Callable[[str], None]) -> None: ...
+    def run(self, jobs: list[Any], on_result: OnResult, log: Callable[[str], None], fn: JobFn = run_job
+            ) -> None: ...
 
     def close(self) -> None: ...
 
@@ -52,22 +56,23 @@ class LocalExecutor:
     def _new_pool(self) -> ProcessPoolExecutor:
         return ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"))
 
-    def run(self, jobs: list[Job], on_result: OnResult, log: Callable[[str], None]) -> None:
+    def run(self, jobs: list[Any], on_result: OnResult, log: Callable[[str], None], fn: JobFn = run_job
+            ) -> None:
         if self.workers == 0:
             for job in jobs:
-                on_result(job, run_job(job))
+                on_result(job, fn(job))
             return
         pending = list(reversed(jobs))  # popped from the end: in job order
         retries: dict[int, int] = {}
-        running: dict[Future[JobOutput], Job] = {}
+        running: dict[Future[JobOutput], Any] = {}
         if self._pool is None:
             self._pool = self._new_pool()
         while pending or running:
             while pending and len(running) < 2 * self.workers:
                 job = pending.pop()
-                running[self._pool.submit(run_job, job)] = job
+                running[self._pool.submit(fn, job)] = job
             done, _ = wait(list(running), return_when=FIRST_COMPLETED)
-            broken: list[Job] = []
+            broken: list[Any] = []
             for future in done:
                 job = running.pop(future)
                 try:
@@ -83,8 +88,8 @@ class LocalExecutor:
                 self._pool = self._new_pool()
                 log(f"a worker process died; rerunning {len(broken)} job(s) that were in flight")
                 for job in sorted(broken, key=lambda j: -j.index):
-                    retries[job.index] = retries.get(job.index, 0) + 1
-                    if retries[job.index] > self.max_retries:
+                    retries[id(job)] = retries.get(id(job), 0) + 1  # by object: indices may repeat
+                    if retries[id(job)] > self.max_retries:
                         error = f"{job.obj.object_id}: its worker died {self.max_retries + 1} times; skipped"
                         on_result(job, JobOutput(job.index, {}, {}, error=error))
                     else:
@@ -118,16 +123,20 @@ class RayExecutor:
             ray.init(address=address, **kwargs)
             self._started = True
         self.workers = int(ray.cluster_resources().get("CPU", 1))
-        self._remote = ray.remote(num_cpus=1, max_retries=max_retries)(run_job)
+        self._remotes: dict[JobFn, Any] = {}
 
-    def run(self, jobs: list[Job], on_result: OnResult, log: Callable[[str], None]) -> None:
+    def run(self, jobs: list[Any], on_result: OnResult, log: Callable[[str], None], fn: JobFn = run_job
+            ) -> None:
         ray = self._ray
+        if fn not in self._remotes:
+            self._remotes[fn] = ray.remote(num_cpus=1, max_retries=self.max_retries)(fn)
+        remote = self._remotes[fn]
         pending = list(reversed(jobs))
-        running: dict[Any, Job] = {}
+        running: dict[Any, Any] = {}
         while pending or running:
             while pending and len(running) < 2 * self.workers:
                 job = pending.pop()
-                running[self._remote.remote(job)] = job
+                running[remote.remote(job)] = job
             ready, _ = ray.wait(list(running), num_returns=1)
             for ref in ready:
                 job = running.pop(ref)
