@@ -8,6 +8,7 @@ from typing import Any
 
 import mujoco
 import numpy as np
+from numpy.typing import NDArray
 
 from tognet.errors import TognetError
 
@@ -17,7 +18,10 @@ class RenderError(TognetError):
 
 
 class GifRecorder:
-    """Captures a frame every ``every`` physics chunks while attached to a Simulator (``sim._recorder``)."""
+    """Captures a frame every ``every`` physics chunks while attached to a Simulator (``sim._recorder``),
+    with the simulated time of each, so that :meth:`save` writes a GIF that plays at the real speed.
+    ``max_fps``: skip chunks less than 1 / max_fps simulated seconds after the last frame (rendering is
+    the cost: ~30 ms a frame with software GL)."""
 
     def __init__(
         self,
@@ -29,6 +33,7 @@ class GifRecorder:
         distance: float = 1.5,
         azimuth: float = 90.0,
         elevation: float = -40.0,
+        max_fps: float | None = None,
     ) -> None:
         try:
             self.renderer = mujoco.Renderer(model, height, width)
@@ -49,30 +54,62 @@ class GifRecorder:
             self.option.geomgroup[group] = 1
         self.option.geomgroup[3] = 0  # the object's collision pieces duplicate its visual mesh
         self.every = every
+        self.min_interval = 1.0 / max_fps if max_fps else 0.0
         self.count = 0
         self.frames: list[np.ndarray] = []
+        self.times: list[float] = []
 
     def __call__(self, sim: Any) -> None:
         self.count += 1
-        if self.count % self.every == 0:
-            self.capture(sim.data)
+        if self.count % self.every:
+            return
+        t = float(sim.data.time)
+        if self.times and self.times[-1] <= t < self.times[-1] + self.min_interval - 1e-9:
+            return
+        self.capture(sim.data)
 
     def capture(self, data: mujoco.MjData) -> None:
         """Render one frame now."""
         self.renderer.update_scene(data, camera=self.camera, scene_option=self.option)
         self.frames.append(self.renderer.render().copy())
+        self.times.append(float(data.time))
 
-    def save(self, path: str | Path, fps: int = 25, max_frames: int = 120) -> Path:
-        """Write the frames as an animated GIF (thinned to at most ``max_frames``)."""
-        import imageio.v2 as imageio
+    def elapsed(self) -> NDArray[np.float64]:
+        """Simulated seconds since the first frame, per frame (a clock that restarts, e.g. a new trial,
+        continues from where it was, one nominal 20 ms frame later)."""
+        t = np.asarray(self.times, dtype=np.float64)
+        if len(t) != len(self.frames):  # frames appended by hand: 20 ms apart
+            return 0.02 * np.arange(len(self.frames))
+        steps = np.diff(t, prepend=t[:1])
+        steps[steps <= 0] = 0.02
+        steps[0] = 0.0
+        return np.cumsum(steps)
 
-        frames = self.frames
-        if len(frames) > max_frames:
-            idx = np.linspace(0, len(frames) - 1, max_frames).round().astype(int)
-            frames = [frames[i] for i in idx]
+    def save(self, path: str | Path, fps: int = 25, max_frames: int = 120, speed: float = 1.0,
+             hold: float = 0.5) -> Path:
+        """Write the frames as an animated GIF that plays at ``speed`` times the simulated speed: at most
+        ``fps`` frames per second of simulated time (and at most ``max_frames``: frames further apart
+        when the episode is long), each shown for the simulated time until the next one (in the GIF's
+        10 ms units, rounded so that the total is exact; browsers show delays under 20 ms as 100 ms, so
+        none is). The last frame stays ``hold`` seconds longer."""
+        from PIL import Image
+
+        if not self.frames:
+            raise ValueError("no frame to save")
+        times = self.elapsed() / speed
+        step = max(1.0 / fps, times[-1] / max(1, max_frames - 1), 0.02)
+        keep = [0]
+        for i in range(1, len(times)):
+            if times[i] - times[keep[-1]] >= step - 1e-9:
+                keep.append(i)
+        centis = np.round(times[keep] * 100).astype(int)  # GIF delays are in hundredths of a second
+        ends = np.append(centis[1:], centis[-1] + max(2, round(100 * step)) + round(100 * hold))
+        delays = np.maximum(ends - centis, 2) * 10  # milliseconds
+        images = [Image.fromarray(self.frames[i]) for i in keep]
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        imageio.mimsave(path, frames, duration=1.0 / fps, loop=0)
+        images[0].save(path, save_all=True, append_images=images[1:], duration=[int(d) for d in delays],
+                       loop=0, disposal=1)
         return path
 
     def close(self) -> None:
