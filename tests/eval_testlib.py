@@ -1,0 +1,21 @@
+"""Tiny checkpoints for the planner and evaluation tests: one epoch on synthetic episodes (the right inputs
+and outputs, no skill), the grasp-only model and both tasks' TOG-Nets."""
+
+from pathlib import Path
+
+
+def tiny_models(root: Path) -> dict[str, Path]:
+    """``{"grasping": best.pt, "sweeping": ..., "hammering": ...}`` trained in ``root`` in a few seconds."""
+    from tognet.data.synthetic import write_synthetic_dataset
+    from tognet.model.config import ArchConfig, TrainConfig
+    from tognet.model.train import train
+
+    arch = ArchConfig(stem_channels=8, block_channels=(8,), block_strides=(2,), bottleneck_channels=4,
+                      z_features=8, head_hidden=16)
+    cfg = TrainConfig(arch=arch, num_threads=1, epochs=1, batch_size=32, val_fraction=0.25, seed=0)
+    out = {}
+    for task in ("grasping", "sweeping", "hammering"):
+        data = write_synthetic_dataset(root / f"data-{task}", task=task, n=96, shard_size=96, seed=1,
+                                       n_objects=8)
+        out[task] = train([data], task, root / task, cfg, progress=False, log=lambda s: None).best_path
+    return out

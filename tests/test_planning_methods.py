@@ -1,0 +1,93 @@
+"""Every method's planner (the paper's baselines, TOG-Net and the Oracle) returns a plan the simulator can
+run, on a PG-Primitive, a PG-Complex and a realistic test object, for both tasks."""
+
+import numpy as np
+import pytest
+from eval_testlib import tiny_models
+
+from tognet.objects import generate_set
+from tognet.planning import METHODS, OracleConfig, PlanConfig, check_methods, make_planner
+from tognet.sim import SimConfig, Simulator
+from tognet.tasks import FailureReason
+
+FAST = PlanConfig(oracle=OracleConfig(grasps=2, seeds=1, max_trials=12))
+
+
+@pytest.fixture(scope="module")
+def models(tmp_path_factory):
+    from tognet.collect.jobs import load_model
+
+    paths = tiny_models(tmp_path_factory.mktemp("models"))
+    return {name: load_model(str(p)) for name, p in paths.items()}
+
+
+@pytest.fixture(scope="module")
+def objects(tmp_path_factory):
+    root = tmp_path_factory.mktemp("objects")
+    kinds = ("primitive", "complex", "realistic")
+    return {kind: generate_set(kind, "test", 1, root / kind)[0] for kind in kinds}
+
+
+@pytest.mark.parametrize("task", ["sweeping", "hammering"])
+@pytest.mark.parametrize("kind", ["primitive", "complex", "realistic"])
+def test_every_planner_returns_a_plan_the_simulator_runs(models, objects, kind, task):
+    sim = Simulator(SimConfig(), task, objects[kind])
+    obs = sim.reset(11)
+    pos, _ = sim.object_pose()
+    settled = sim.save_state()
+    plans = {}
+    for method in METHODS:
+        planner = make_planner(method, sim.task, grasp_model=models["grasping"], task_model=models[task],
+                               config=FAST, sim=sim)
+        plan = planner.plan(obs, np.random.default_rng(5))
+        plans[method] = plan
+        assert plan.method == method
+        assert plan.grasp.shape == (4,) and plan.action.shape == (4,)
+        assert np.all(np.isfinite(plan.grasp)) and np.all(np.isfinite(plan.action))
+        assert 0 <= plan.grasp[3] < 2 * np.pi
+        # on the object (within its reach of the centre of mass), at most a few cm above the table
+        assert np.hypot(*(plan.grasp[:2] - pos[:2])) < 0.5 * max(objects[kind].extents) + 0.03
+        assert 0.0 < plan.grasp[2] < max(objects[kind].extents) + 0.02
+        assert np.all(plan.action >= sim.task.action_low - 1e-9)
+        assert np.all(plan.action <= sim.task.action_high + 1e-9)
+        if method.endswith("Random"):  # the paper's random action: +-5 cm, +-pi/20 about the nominal
+            assert np.all(np.abs(plan.action[:3]) <= 0.05) and abs(plan.action[3]) <= np.pi / 20
+        assert plan.timing["total"] > 0
+        np.testing.assert_array_equal(sim.save_state(), settled)  # the Oracle's search put the scene back
+        result = sim.execute(plan.grasp_pose, plan.action, seed=0)
+        assert result.failure in FailureReason
+    # generators in the same state: the same candidates, so the same CEM grasp for the same scorer
+    np.testing.assert_array_equal(plans["Task_Agn+Random"].grasp, plans["Task_Agn+Trained"].grasp)
+    np.testing.assert_array_equal(plans["Task_Ori+Random"].grasp, plans["TOG-Net"].grasp)
+    np.testing.assert_allclose(plans["TOG-Net"].scores["q_t"], plans["TOG-Net"].scores["choice"], rtol=1e-4)
+    assert plans["Oracle"].info["search_trials"] <= FAST.oracle.max_trials
+
+
+def test_planners_are_deterministic_given_the_generator(models, objects):
+    sim = Simulator(SimConfig(), "hammering", objects["primitive"])
+    obs = sim.reset(2)
+    for method in ("Antipodal+Random", "TOG-Net", "Oracle"):
+        planner = make_planner(method, sim.task, grasp_model=models["grasping"],
+                               task_model=models["hammering"], config=FAST, sim=sim)
+        a, b = planner(obs, np.random.default_rng(9)), planner(obs, np.random.default_rng(9))
+        np.testing.assert_array_equal(a.grasp, b.grasp)
+        np.testing.assert_array_equal(a.action, b.action)
+
+
+def test_planner_arguments_are_checked(models, objects):
+    sim = Simulator(SimConfig(), "sweeping", objects["primitive"])
+    assert check_methods("all") == METHODS
+    assert check_methods("tog-net, oracle") == ("TOG-Net", "Oracle")
+    with pytest.raises(ValueError, match="unknown method 'Dex-Net'"):
+        check_methods("Dex-Net")
+    with pytest.raises(ValueError, match="needs the sweeping model"):
+        make_planner("TOG-Net", sim.task, grasp_model=models["grasping"])
+    with pytest.raises(ValueError, match="trained for hammering"):
+        make_planner("TOG-Net", sim.task, task_model=models["hammering"])
+    with pytest.raises(ValueError, match="needs the simulator"):
+        make_planner("Oracle", sim.task)
+    other = Simulator(SimConfig(), "sweeping", objects["primitive"])
+    obs = other.reset(4)
+    sim.reset(5)
+    with pytest.raises(ValueError, match="does not hold the observation's scene"):
+        make_planner("Oracle", sim.task, sim=sim, config=FAST)(obs, np.random.default_rng(0))
