@@ -46,7 +46,8 @@ def test_end_to_end_train_and_info(tmp_path):
     assert r.exit_code == 0, r.output
     assert "reading shards" in r.output and "evaluating" in r.output  # progress bars (stderr)
     ev = json.loads((tmp_path / "eval.json").read_text())
-    assert ev["count"] == 50 and ev["task"] == "hammering" and "auc" in ev["metrics"]["grasp"]
+    assert ev["count"] == 50 and ev["task_name"] == "hammering" and "auc" in ev["metrics"]["grasp"]
+    assert isinstance(ev["task"], float) and ev["task"] >= 0  # the Q_T|G loss term, not the task's name
     r = runner.invoke(app, ["model", "info", "--json", str(out / "last.pt")])
     assert json.loads(r.output)["resumable"] is True
     r = runner.invoke(app, ["train", "--data", str(data), "--task", "hammering", "--out", str(out),

@@ -1,3 +1,4 @@
+import dataclasses
 import json
 
 import numpy as np
@@ -181,24 +182,29 @@ def test_wrong_task_refused(dataset, tmp_path):
 
 @pytest.mark.parametrize("reduction", ["batch", "masked"])
 def test_validation_loss_is_the_training_loss(trained, dataset, reduction):
-    # evaluate() accumulates the loss over many batches; it must equal tognet_loss over the whole set
-    # (same masks, same reduction), or early stopping and best.pt follow a different objective.
+    # evaluate() accumulates the loss over many streamed batches; it must equal tognet_loss over the whole
+    # set (same masks, same reduction), or early stopping and best.pt follow a different objective.
     from tognet.data.episodes import read_dataset
+    from tognet.data.stream import EpisodeStream
     from tognet.model.checkpoint import model_from_checkpoint
     from tognet.model.config import LossConfig
     from tognet.model.loss import tognet_loss
-    from tognet.model.train import _Tensors, evaluate
+    from tognet.model.train import evaluate
 
     loss_cfg = LossConfig(reduction=reduction)
     cfg = _cfg(eval_batch_size=37, loss=loss_cfg)
     model = model_from_checkpoint(load_checkpoint(trained.best_path)).eval()
-    data = _Tensors(read_dataset([dataset]), torch.device("cpu"))
-    assert 0 < float(data.s_t.sum()) < float(data.s_g.sum()) < len(data)
-    result = evaluate(model, data, cfg)
+    ep = read_dataset([dataset])
+    s_g = torch.from_numpy(ep.grasp_success.astype(np.float32))
+    s_t = torch.from_numpy(ep.task_success.astype(np.float32))
+    assert 0 < float(s_t.sum()) < float(s_g.sum()) < len(ep)
+    stream = EpisodeStream([dataset], "sweeping")
+    result = evaluate(model, stream.batches("all", cfg.eval_batch_size), cfg)
+    assert result["count"] == len(ep)
     with torch.no_grad():
-        out = model(data.crop.float(), data.z)
+        out = model(torch.from_numpy(ep.crop).float(), torch.from_numpy(ep.z))
         ref = tognet_loss(out["q_g_logit"], out["q_tg_logit"], model.denormalize_action(out["action_norm"]),
-                          data.s_g, data.s_t, data.action, loss_cfg)
+                          s_g, s_t, torch.from_numpy(ep.action), loss_cfg)
     for key in ("loss", "grasp", "task", "action"):
         assert result[key] == pytest.approx(float(ref[key]), rel=1e-4), key
 
@@ -209,3 +215,105 @@ def test_package_exports_the_training_function_not_the_module():
     from tognet.model.train import train as train_function
 
     assert train_model is train_function and callable(tognet.model.train_model)
+
+
+def test_truncated_shard_named_or_skipped(tmp_path):
+    from tognet.data.episodes import DatasetError
+
+    d = write_synthetic_dataset(tmp_path / "d", task="t", n=120, shard_size=40, seed=2, n_objects=6)
+    shard = d / "shard-00001.npz"
+    shard.write_bytes(shard.read_bytes()[:3000])
+    with pytest.raises(DatasetError, match=r"shard-00001\.npz: corrupt or truncated"):
+        train([d], "t", tmp_path / "o", _cfg(epochs=1), progress=False, log=lambda s: None)
+    assert not (tmp_path / "o").exists()
+    with pytest.warns(UserWarning, match=r"skipping bad shard.*shard-00001\.npz"):
+        run = train([d], "t", tmp_path / "o", _cfg(epochs=1, skip_bad_shards=True), progress=False,
+                    log=lambda s: None)
+    split = json.loads((run.out / "data.json").read_text())["split"]
+    assert split["train_episodes"] + split["val_episodes"] == 80
+
+
+def _learned(state):
+    return {k: v for k, v in state.items() if not k.endswith(("running_mean", "running_var",
+                                                              "num_batches_tracked"))}
+
+
+@pytest.fixture(scope="module")
+def other_data(tmp_path_factory):
+    """Episodes of the same task on other objects (other normalisation statistics than ``dataset``)."""
+    return write_synthetic_dataset(tmp_path_factory.mktemp("other") / "d", task="sweeping", n=240,
+                                   shard_size=60, seed=11, n_objects=12, noise=0.004)
+
+
+def test_warm_start_takes_weights_and_normalization(trained, other_data, tmp_path):
+    init = load_checkpoint(trained.best_path)
+    # lr 0: the weights stay the checkpoint's (batch-norm running statistics still move)
+    logs = []
+    run = train([other_data], "sweeping", tmp_path / "o", _cfg(epochs=1, lr=0.0), init_from=trained.best_path,
+                progress=False, log=logs.append)
+    assert any("initialised from" in line for line in logs)
+    payload = load_checkpoint(run.last_path)
+    a, b = _learned(init["state_dict"]), _learned(payload["state_dict"])
+    assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
+    assert payload["normalization"] == init["normalization"]
+    fresh = train([other_data], "sweeping", tmp_path / "f", _cfg(epochs=1), progress=False,
+                  log=lambda s: None)
+    assert load_checkpoint(fresh.best_path)["normalization"] != init["normalization"]
+    # recorded where the run came from: data.json, metrics.json and the checkpoints
+    data = json.loads((run.out / "data.json").read_text())
+    assert data["init_from"]["path"] == str(trained.best_path.resolve())
+    assert data["init_from"]["epoch"] == init["epoch"] and len(data["init_from"]["sha256"]) == 64
+    assert json.loads((run.out / "metrics.json").read_text())["init_from"] == data["init_from"]
+    assert payload["data"]["init_from"] == data["init_from"]
+    assert json.loads((fresh.out / "data.json").read_text())["init_from"] is None
+    # warm-started training starts from a lower loss than a fresh one
+    warm = train([other_data], "sweeping", tmp_path / "w", _cfg(epochs=1), init_from=trained.best_path,
+                 progress=False, log=lambda s: None)
+    assert warm.history[0]["train"]["loss"] < fresh.history[0]["train"]["loss"]
+    assert warm.history[0]["val"]["loss"] < fresh.history[0]["val"]["loss"]
+
+
+def test_warm_start_refuses_other_task_or_architecture(trained, tmp_path):
+    from tognet.model.checkpoint import CheckpointError
+
+    ham = write_synthetic_dataset(tmp_path / "h", task="hammering", n=60, seed=1, n_objects=4)
+    with pytest.raises(TrainingError, match=r"best\.pt: a checkpoint of task 'sweeping', but training task "
+                                            r"'hammering'"):
+        train([ham], "hammering", tmp_path / "o", _cfg(), init_from=trained.best_path, progress=False,
+              log=lambda s: None)
+    wider = dataclasses.replace(TINY, head_hidden=16)
+    sweep = write_synthetic_dataset(tmp_path / "s", task="sweeping", n=60, seed=1, n_objects=4)
+    with pytest.raises(TrainingError, match=r"architecture differs from the config's in \['head_hidden'\]"):
+        train([sweep], "sweeping", tmp_path / "o", _cfg(arch=wider), init_from=trained.best_path,
+              progress=False, log=lambda s: None)
+    with pytest.raises(CheckpointError, match="checkpoint file not found"):
+        train([sweep], "sweeping", tmp_path / "o", _cfg(), init_from=tmp_path / "nope.pt", progress=False,
+              log=lambda s: None)
+    assert not (tmp_path / "o").exists()
+
+
+def test_resume_wins_over_init_from(dataset, trained, tmp_path):
+    out = tmp_path / "o"
+    train([dataset], "sweeping", out, _cfg(epochs=1), progress=False, log=lambda s: None)
+    logs = []
+    resumed = train([dataset], "sweeping", out, _cfg(epochs=3), resume=True, init_from=trained.best_path,
+                    progress=False, log=logs.append)
+    assert any("init_from" in line and "ignored" in line for line in logs)
+    assert json.loads((out / "data.json").read_text())["init_from"] is None
+    s1 = load_checkpoint(trained.last_path)["state_dict"]
+    s2 = load_checkpoint(resumed.last_path)["state_dict"]
+    assert all(torch.equal(s1[k], s2[k]) for k in s1)
+
+
+def test_streamed_training_over_many_small_shards_learns(tmp_path):
+    # one object per few shards, a shuffle buffer of a few batches: the run must still learn the rule
+    d = write_synthetic_dataset(tmp_path / "d", task="t", n=600, shard_size=20, seed=4, n_objects=30)
+    run = train([d], "t", tmp_path / "o", _cfg(epochs=3, shuffle_buffer=96, patience=10), progress=False,
+                log=lambda s: None)
+    first, last = run.history[0], run.history[-1]
+    assert first["val"]["count"] == run.history[-1]["val"]["count"] > 0
+    assert all(np.isfinite(h["train"]["loss"]) and np.isfinite(h["val"]["loss"]) for h in run.history)
+    assert last["train"]["loss"] < 0.5 * first["train"]["loss"]
+    assert run.best["loss"] < first["val"]["loss"]
+    assert last["val"]["metrics"]["grasp"]["auc"] > 0.95
+    assert last["val"]["metrics"]["task_given_grasp"]["auc"] > 0.9

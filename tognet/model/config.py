@@ -72,7 +72,14 @@ class TrainConfig(Config):
     eval_batch_size: int = doc(1024, "Episodes per forward pass during validation.")
     crop_storage: Literal["float32", "float16"] = doc(
         "float32",
-        "dtype of the training crops held in memory (float16 halves it: 8 KiB per episode instead of 16; "
-        "its ~3e-5 m spacing near 3 cm is far below the depth noise). Batches are computed in float32.",
+        "Deprecated and ignored (kept so that existing config files still load): training streams the "
+        "data and holds only the shuffle buffer, whose crops stay float16 as stored on disk; batches are "
+        "computed in float32.",
+    )
+    shuffle_buffer: int = doc(
+        16384,
+        "Training episodes held in memory to shuffle batches (8 KiB each: 16384 = 128 MiB, whatever the "
+        "dataset size). Shards are visited in a random order every epoch and each batch is drawn at random "
+        "from the buffer; collected shards hold one object each, so the buffer must span many shards.",
     )
     skip_bad_shards: bool = doc(False, "Skip corrupt or truncated shards with a warning instead of failing.")

@@ -1,9 +1,17 @@
-"""Training of one TOG-Net model over episode data (validation split by object, early stopping, resume).
+"""Training of one TOG-Net model over episode data (validation split by object, early stopping, resume,
+warm start from an earlier checkpoint).
+
+The data is streamed (:class:`tognet.data.stream.EpisodeStream`): a listing pass reads only the shards'
+object ids and validity flags (the split by object and the counts), then every epoch reads the shards in
+a seeded random order through a shuffle buffer of ``TrainConfig.shuffle_buffer`` episodes, and every
+validation pass reads the validation episodes in a fixed order. Memory stays flat whatever the dataset
+size; normalisation statistics come from at most ~4096 training episodes of a few (seeded) shards.
 
 Writes into ``out``::
 
     config.json     the TrainConfig used
-    data.json       description of the dataset folders (shards, counts, sha256)
+    data.json       description of the dataset folders (shards, counts, sha256), the split and the
+                    checkpoint the weights were initialised from (``init_from``; None for a fresh init)
     last.pt         checkpoint after the latest epoch, with optimiser and RNG state (resumable)
     best.pt         checkpoint of the epoch with the best validation loss (what planners load)
     metrics.json    per-epoch history (train/validation loss components, per-head metrics) and the best
@@ -13,12 +21,13 @@ Writes into ``out``::
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import math
 import os
 import time
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -26,13 +35,8 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from tognet.data.episodes import (
-    EpisodeArrays,
-    dataset_configs,
-    describe_dataset,
-    read_dataset,
-    split_indices_by_object,
-)
+from tognet.data.episodes import dataset_configs, describe_dataset
+from tognet.data.stream import Batch, EpisodeStream
 from tognet.errors import TognetError
 from tognet.model.checkpoint import (
     CheckpointError,
@@ -48,6 +52,8 @@ from tognet.model.runtime import select_device, set_threads, tune_allocator
 
 #: Config fields that may differ when resuming (everything else must match the checkpoint).
 RESUMABLE_CHANGES = ("epochs", "patience", "device", "num_threads", "eval_batch_size")
+#: Most training episodes read for the normalisation statistics (crop, z and action mean/std).
+NORMALIZATION_SAMPLE = 4096
 
 
 class TrainingError(TognetError):
@@ -79,20 +85,6 @@ def seed_everything(seed: int, deterministic: bool, num_threads: int) -> None:
         torch.backends.cudnn.deterministic = True
 
 
-class _Tensors:
-    """Episode columns as tensors on a device, indexed by batches."""
-
-    def __init__(self, ep: EpisodeArrays, device: torch.device, storage: str = "float32") -> None:
-        self.crop = torch.from_numpy(np.ascontiguousarray(ep.crop, dtype=np.dtype(storage))).to(device)
-        self.z = torch.from_numpy(ep.z.astype(np.float32)).to(device)
-        self.action = torch.from_numpy(ep.action.astype(np.float32)).to(device)
-        self.s_g = torch.from_numpy(ep.grasp_success.astype(np.float32)).to(device)
-        self.s_t = torch.from_numpy(ep.task_success.astype(np.float32)).to(device)
-
-    def __len__(self) -> int:
-        return int(self.z.shape[0])
-
-
 def _as_jsonable(x: Any) -> Any:
     if isinstance(x, torch.Tensor):
         return x.item() if x.numel() == 1 else x.tolist()
@@ -102,25 +94,33 @@ def _as_jsonable(x: Any) -> Any:
 
 
 @torch.no_grad()
-def evaluate(model: TOGNet, data: _Tensors, config: TrainConfig, progress: bool = False) -> dict[str, Any]:
-    """Validation loss (components, reduced over the whole set as in training) and per-head metrics."""
+def evaluate(model: TOGNet, batches: Iterable[Batch], config: TrainConfig, progress: bool = False,
+             total: int | None = None) -> dict[str, Any]:
+    """Validation loss (components, reduced over all the batches together as in training) and per-head
+    metrics, over ``batches`` (e.g. :meth:`EpisodeStream.batches`; ``total``: their number, for the bar).
+    Only predictions and labels are kept, not crops."""
     model.eval()
-    n = len(data)
+    device = next(model.parameters()).device
+    n = 0
     sums = torch.zeros(3, dtype=torch.float64)
     counts = torch.zeros(2, dtype=torch.float64)
-    q_g, q_tg, act = [], [], []
-    for lo in tqdm(range(0, n, config.eval_batch_size), desc="evaluating", unit="batch", disable=not progress,
-                   leave=False, mininterval=1.0):
-        sl = slice(lo, lo + config.eval_batch_size)
-        out = model(data.crop[sl].float(), data.z[sl])
+    q_g, q_tg, act, s_g, s_t, a_true = [], [], [], [], [], []
+    for batch in tqdm(batches, total=total, desc="evaluating", unit="batch", disable=not progress,
+                      leave=False, mininterval=1.0):
+        b = batch.to(device)
+        out = model(b.crop, b.z)
         a_pred = model.denormalize_action(out["action_norm"])
-        terms = masked_sums(out["q_g_logit"], out["q_tg_logit"], a_pred, data.s_g[sl], data.s_t[sl],
-                            data.action[sl], config.loss.action_sigma)
+        terms = masked_sums(out["q_g_logit"], out["q_tg_logit"], a_pred, b.s_g, b.s_t, b.action,
+                            config.loss.action_sigma)
         sums += torch.stack(terms[:3]).double().cpu()
         counts += torch.stack(terms[3:]).double().cpu()
         q_g.append(torch.sigmoid(out["q_g_logit"]).cpu())
         q_tg.append(torch.sigmoid(out["q_tg_logit"]).cpu())
         act.append(a_pred.cpu())
+        s_g.append(batch.s_g.cpu())
+        s_t.append(batch.s_t.cpu())
+        a_true.append(batch.action.cpu())
+        n += len(batch)
     result: dict[str, Any] = {"count": n}
     if n == 0:
         return result
@@ -128,7 +128,7 @@ def evaluate(model: TOGNet, data: _Tensors, config: TrainConfig, progress: bool 
     result.update(loss=float(g + t + a), grasp=float(g), task=float(t), action=float(a))
     result["metrics"] = head_metrics(
         torch.cat(q_g).numpy(), torch.cat(q_tg).numpy(), torch.cat(act).numpy(),
-        data.s_g.cpu().numpy(), data.s_t.cpu().numpy(), data.action.cpu().numpy(),
+        torch.cat(s_g).numpy(), torch.cat(s_t).numpy(), torch.cat(a_true).numpy(),
     )
     return result
 
@@ -209,20 +209,77 @@ def train(
     config: TrainConfig | None = None,
     *,
     resume: bool = False,
+    init_from: str | Path | None = None,
     progress: bool = True,
     log: Callable[[str], None] = print,
 ) -> TrainResult:
     """Train (or resume training) a TOG-Net model on the episodes in ``data_dirs`` for ``task``.
+
+    ``init_from``: a checkpoint (e.g. the previous round's ``best.pt``) whose weights and normalisation
+    start the run instead of a fresh initialisation; it must be of the same task and architecture
+    (TrainingError otherwise) and is recorded in ``data.json``, ``metrics.json`` and the checkpoints'
+    ``data``. When resuming (``resume`` with a ``last.pt`` in ``out``) the run continues from ``last.pt``
+    and ``init_from`` is ignored.
 
     torch's thread count and deterministic-algorithms setting are changed while training and restored
     afterwards."""
     saved = (torch.get_num_threads(), torch.are_deterministic_algorithms_enabled(),
              torch.is_deterministic_algorithms_warn_only_enabled())
     try:
-        return _train(data_dirs, task, out, config, resume=resume, progress=progress, log=log)
+        return _train(data_dirs, task, out, config, resume=resume, init_from=init_from, progress=progress,
+                      log=log)
     finally:
         torch.set_num_threads(saved[0])
         torch.use_deterministic_algorithms(saved[1], warn_only=saved[2])
+
+
+def _file_sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _load_init(
+    init_from: str | Path, task: str, config: TrainConfig
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The checkpoint to warm-start from (checked: same task, same architecture) and its record for
+    data.json (path, sha256, epoch, task, best)."""
+    path = Path(init_from)
+    payload = load_checkpoint(path, map_location="cpu")
+    if payload["task"] != task:
+        raise TrainingError(f"{path}: a checkpoint of task {payload['task']!r}, but training task {task!r}; "
+                            "initialise only from a checkpoint of the same task")
+    arch: Any = payload["config_obj"].arch
+    if arch != config.arch:
+        mine, theirs = config.arch.to_dict(), arch.to_dict()
+        diff = sorted(k for k in mine if mine[k] != theirs.get(k))
+        raise TrainingError(f"{path}: its architecture differs from the config's in {diff}; initialise from "
+                            "a checkpoint of the same architecture (or train from scratch)")
+    info = {"path": str(path.resolve()), "sha256": _file_sha256(path), "task": payload["task"],
+            "epoch": int(payload["epoch"]), "best": {k: payload["best"].get(k) for k in ("epoch", "loss")},
+            "crop_config": payload.get("crop_config")}
+    return payload, info
+
+
+def _normalization(stream: EpisodeStream) -> dict[str, object]:
+    """:func:`normalization_from_data` of at most NORMALIZATION_SAMPLE training episodes (a few seeded
+    shards), the crops' mean and std accumulated in float64 over chunks (not one float64 copy of them
+    all: 128 MiB for 4096 crops)."""
+    sample = stream.sample("train", NORMALIZATION_SAMPLE)
+    crops = sample["crop"]
+    stats = normalization_from_data(
+        torch.from_numpy(crops[:2]), torch.from_numpy(sample["z"]), torch.from_numpy(sample["action"]),
+        torch.from_numpy(sample["task_success"].astype(np.float32)),
+    )
+    chunks = range(0, len(crops), 256)
+    n = crops.size
+    mean = sum(float(crops[i : i + 256].sum(dtype=np.float64)) for i in chunks) / n
+    sq = sum(float(np.square(crops[i : i + 256].astype(np.float64) - mean).sum()) for i in chunks)
+    stats["crop_mean"] = mean
+    stats["crop_std"] = max(math.sqrt(sq / max(n - 1, 1)), 1e-6)  # unbiased, floored as in the function
+    return stats
 
 
 def _train(
@@ -232,6 +289,7 @@ def _train(
     config: TrainConfig | None,
     *,
     resume: bool,
+    init_from: str | Path | None,
     progress: bool,
     log: Callable[[str], None],
 ) -> TrainResult:
@@ -247,37 +305,47 @@ def _train(
         raise TrainingError(f"{last_path}: nothing to resume (no last.pt in {out})")
     if config.batch_size < 2:
         raise TrainingError("batch_size must be >= 2 (batch norm needs two samples)")
-    # read the run to resume before the (long) data reading, so a bad last.pt fails at once
+    if config.shuffle_buffer < 0:
+        raise TrainingError(f"shuffle_buffer must be >= 0, got {config.shuffle_buffer}")
+    # read the run to resume (or the checkpoint to start from) before the data, so a bad file fails at once
     payload = load_checkpoint(last_path, map_location="cpu") if resume else None
+    init: tuple[dict[str, Any], dict[str, Any]] | None = None
+    if init_from is not None:
+        if payload is not None:
+            log(f"note: resuming {out} from its last.pt; init_from={init_from} is ignored")
+        else:
+            init = _load_init(init_from, task, config)
 
     seed_everything(config.seed, config.deterministic, config.num_threads)
     tune_allocator()
     device = select_device(config.device)
 
-    episodes = read_dataset(data_dirs, task=task, skip_bad=config.skip_bad_shards, progress=progress)
-    if len(episodes) < 2:
-        raise TrainingError(f"only {len(episodes)} valid episodes in {list(map(str, data_dirs))}")
+    stream = EpisodeStream(data_dirs, task, val_fraction=config.val_fraction, seed=config.seed,
+                           shuffle_buffer=config.shuffle_buffer, skip_bad=config.skip_bad_shards,
+                           progress=progress)
+    counts = stream.counts()
+    if counts["valid"] < 2:
+        raise TrainingError(f"only {counts['valid']} valid episodes in {list(map(str, data_dirs))}")
     data_desc = describe_dataset(data_dirs)
     crop_config = crop_config_from_data(data_dirs, config.arch)
     if crop_config is None:
         log("note: the datasets saved no CropConfig; the checkpoint cannot tell planners the crops' metric "
             "extent (they will assume the default CropConfig)")
-    train_idx, val_idx = split_indices_by_object(episodes.object_id, config.val_fraction, config.seed)
-    train_ep, val_ep = episodes.subset(train_idx), episodes.subset(val_idx)
+    if init is not None and crop_config is not None and init[1]["crop_config"] not in (None, crop_config):
+        diff = sorted(k for k in crop_config if crop_config[k] != init[1]["crop_config"].get(k))
+        raise TrainingError(f"{init_from}: trained on crops made with another CropConfig than the data's "
+                            f"(differs in {diff}); initialise from a checkpoint trained on such crops")
     split = {
-        "train_episodes": len(train_ep), "val_episodes": len(val_ep),
-        "train_objects": int(len(np.unique(train_ep.object_id))),
-        "val_objects": int(len(np.unique(val_ep.object_id))),
+        "train_episodes": counts["train_episodes"], "val_episodes": counts["val_episodes"],
+        "train_objects": counts["train_objects"], "val_objects": counts["val_objects"],
         "val_fraction": config.val_fraction, "seed": config.seed,
     }
-    if len(train_ep) < 2:
-        raise TrainingError(f"only {len(train_ep)} training episodes after the split by object")
-    if len(val_ep) == 0:
+    n_train, n_val = split["train_episodes"], split["val_episodes"]
+    if n_train < 2:
+        raise TrainingError(f"only {n_train} training episodes after the split by object")
+    if n_val == 0:
         warnings.warn("no validation objects (one object, or val_fraction=0): early stopping uses the "
                       "training loss", stacklevel=2)
-    train_t = _Tensors(train_ep, device, config.crop_storage)
-    val_t = _Tensors(val_ep, device, config.crop_storage)
-    del episodes, train_ep, val_ep
 
     model = TOGNet(config.arch).to(device)
     optimizer = torch.optim.Adam(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
@@ -300,6 +368,7 @@ def _train(
                                   "counts differ); start a new run in another --out")
         if payload.get("training") is None:
             raise CheckpointError(f"{last_path}: holds no training state; cannot resume")
+        data_desc["init_from"] = payload["data"].get("init_from")
         model = model_from_checkpoint(payload, last_path).to(device)
         optimizer = torch.optim.Adam(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
         scheduler = torch.optim.lr_scheduler.ExponentialLR(optimizer, gamma=config.lr_decay)
@@ -312,51 +381,60 @@ def _train(
         bad_epochs = int(tr["bad_epochs"])
         start_epoch = int(payload["epoch"])
         log(f"resuming {out} after epoch {start_epoch} (best val loss {best.get('loss')})")
-    else:
-        stride = max(1, len(train_t) // 4096)  # crop statistics from at most ~4096 evenly spaced crops
-        model.set_normalization(normalization_from_data(train_t.crop[::stride].float(), train_t.z,
-                                                        train_t.action, train_t.s_t))
+    elif init is not None:
+        init_payload, data_desc["init_from"] = init
+        model = model_from_checkpoint(init_payload, init_from).to(device)  # weights and normalisation
+        optimizer = torch.optim.Adam(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
+        scheduler = torch.optim.lr_scheduler.ExponentialLR(optimizer, gamma=config.lr_decay)
+        log(f"initialised from {init_from} (epoch {init_payload['epoch']}, task {task}): its weights and "
+            "normalisation")
         out.mkdir(parents=True, exist_ok=True)
+    else:
+        data_desc["init_from"] = None
+        model.set_normalization(_normalization(stream))
+        out.mkdir(parents=True, exist_ok=True)
+    init_info = data_desc["init_from"]
 
     config.save(out / "config.json")
     (out / "data.json").write_text(json.dumps({**data_desc, "split": split}, indent=2) + "\n")
-    log(f"task {task}: {split['train_episodes']} training episodes ({split['train_objects']} objects), "
-        f"{split['val_episodes']} validation ({split['val_objects']} objects), device {device}")
+    log(f"task {task}: {n_train} training episodes ({split['train_objects']} objects), {n_val} validation "
+        f"({split['val_objects']} objects) in {counts['shards']} shards, device {device}")
 
     stopped_early = False
-    n_train = len(train_t)
+    n_batches = stream.num_batches("train", config.batch_size)
     for epoch in range(start_epoch, config.epochs):
         if bad_epochs >= config.patience:
             stopped_early = True
             break
         model.train()
-        perm = np.random.default_rng([config.seed, epoch]).permutation(n_train)
-        batches = [perm[i : i + config.batch_size] for i in range(0, n_train, config.batch_size)]
-        if len(batches) > 1 and len(batches[-1]) < 2:
-            batches.pop()  # batch norm cannot train on a single sample
         sums = {k: 0.0 for k in ("loss", "grasp", "task", "action")}
+        used = 0
         t0 = time.perf_counter()
-        bar = tqdm(batches, desc=f"epoch {epoch + 1}/{config.epochs}", unit="batch", disable=not progress,
-                   leave=False, mininterval=1.0)
-        for idx in bar:
-            ix = torch.from_numpy(idx).to(device)
-            out_b = model(train_t.crop[ix].float(), train_t.z[ix])
+        bar = tqdm(stream.batches("train", config.batch_size, epoch=epoch), total=n_batches,
+                   desc=f"epoch {epoch + 1}/{config.epochs}", unit="batch", disable=not progress, leave=False,
+                   mininterval=1.0)
+        for batch in bar:
+            if len(batch) < 2:
+                continue  # batch norm cannot train on a single sample (only the epoch's last batch can be)
+            b = batch.to(device)
+            out_b = model(b.crop, b.z)
             parts = tognet_loss(out_b["q_g_logit"], out_b["q_tg_logit"],
-                                model.denormalize_action(out_b["action_norm"]), train_t.s_g[ix],
-                                train_t.s_t[ix], train_t.action[ix], config.loss)
+                                model.denormalize_action(out_b["action_norm"]), b.s_g, b.s_t, b.action,
+                                config.loss)
             optimizer.zero_grad(set_to_none=True)
             parts["loss"].backward()
             optimizer.step()
             for k in sums:
-                sums[k] += float(parts[k].detach()) * len(idx)
+                sums[k] += float(parts[k].detach()) * len(b)
+            used += len(b)
             bar.set_postfix(loss=f"{float(parts['loss'].detach()):.4f}", refresh=False)
         seconds = time.perf_counter() - t0
-        used = sum(len(b) for b in batches)
         train_stats = {k: v / max(used, 1) for k, v in sums.items()}
         train_stats["samples_per_s"] = used / seconds if seconds > 0 else None
         lr = optimizer.param_groups[0]["lr"]
         scheduler.step()
-        val_stats = evaluate(model, val_t, config) if len(val_t) else {"count": 0}
+        val_stats = (evaluate(model, stream.batches("val", config.eval_batch_size), config)
+                     if n_val else {"count": 0})
         monitor = val_stats.get("loss", train_stats["loss"])
         record = {"epoch": epoch + 1, "lr": lr, "seconds": seconds, "train": train_stats, "val": val_stats}
         history.append(record)
@@ -365,7 +443,7 @@ def _train(
                                 "the data (last good state: last.pt)")
         improved = best["loss"] is None or monitor < best["loss"] - config.min_delta
         if improved:
-            best = {"loss": float(monitor), "epoch": epoch + 1, "monitor": "val" if len(val_t) else "train",
+            best = {"loss": float(monitor), "epoch": epoch + 1, "monitor": "val" if n_val else "train",
                     "val": val_stats}
             bad_epochs = 0
         else:
@@ -378,7 +456,7 @@ def _train(
             "optimizer": optimizer.state_dict(), "scheduler": scheduler.state_dict(),
             "rng_torch": torch.get_rng_state(), "history": history, "bad_epochs": bad_epochs,
         })
-        _write_metrics(out, history, best, split, task)
+        _write_metrics(out, history, best, split, task, init_info)
         m = val_stats.get("metrics", {})
         log(f"epoch {epoch + 1}: train loss {train_stats['loss']:.4f}, val loss "
             f"{val_stats.get('loss', float('nan')):.4f}, Q_G AUC {_fmt(m.get('grasp', {}).get('auc'))}, "
@@ -391,7 +469,7 @@ def _train(
             break
     if history:
         plot_curves(history, out / "curves.png")
-    _write_metrics(out, history, best, split, task, stopped_early=stopped_early)
+    _write_metrics(out, history, best, split, task, init_info, stopped_early=stopped_early)
     if not best_path.exists():
         raise TrainingError(f"{out}: no epoch was trained (epochs={config.epochs})")
     return TrainResult(out=out, best_path=best_path, last_path=last_path, epochs_run=len(history), best=best,
@@ -403,8 +481,8 @@ def _fmt(x: float | None) -> str:
 
 
 def _write_metrics(out: Path, history: list[dict[str, Any]], best: dict[str, Any], split: dict[str, Any],
-                   task: str, stopped_early: bool | None = None) -> None:
-    payload = {"task": task, "split": split, "best": best, "history": history}
+                   task: str, init_from: dict[str, Any] | None, stopped_early: bool | None = None) -> None:
+    payload = {"task": task, "split": split, "init_from": init_from, "best": best, "history": history}
     if stopped_early is not None:
         payload["stopped_early"] = stopped_early
     text = json.dumps(payload, indent=2, default=_as_jsonable, allow_nan=False) + "\n"
@@ -416,8 +494,12 @@ def _write_metrics(out: Path, history: list[dict[str, Any]], best: dict[str, Any
 def evaluate_checkpoint(path: str | Path, data_dirs: Sequence[str | Path], *, skip_bad: bool = False,
                         device: str | None = "cpu", progress: bool = False) -> dict[str, Any]:
     """Loss components and per-head metrics of a checkpoint on every valid episode of ``data_dirs``
-    (e.g. episodes on held-out test objects). The data must be of the checkpoint's task, and made with
-    the checkpoint's CropConfig when both record one."""
+    (e.g. episodes on held-out test objects), streamed shard by shard. The data must be of the
+    checkpoint's task, and made with the checkpoint's CropConfig when both record one.
+
+    The result holds ``count``, the loss components ``loss``, ``grasp``, ``task`` (the Q_T|G term) and
+    ``action``, ``metrics`` per head, ``objects``, ``task_name`` (the checkpoint's task) and
+    ``checkpoint``."""
     payload = load_checkpoint(path)
     config: TrainConfig = payload["config_obj"]
     dev = select_device(device)
@@ -428,9 +510,10 @@ def evaluate_checkpoint(path: str | Path, data_dirs: Sequence[str | Path], *, sk
         diff = sorted(k for k in data_crop if data_crop[k] != trained_crop.get(k))
         raise CheckpointError(f"{path}: trained on crops made with another CropConfig than the data's "
                               f"(differs in {diff}); evaluate on data made with the checkpoint's crops")
-    episodes = read_dataset(data_dirs, task=payload["task"], skip_bad=skip_bad, progress=progress)
-    result = evaluate(model, _Tensors(episodes, dev), config, progress=progress)
-    result["objects"] = int(len(np.unique(episodes.object_id)))
-    result["task"] = payload["task"]
+    stream = EpisodeStream(data_dirs, payload["task"], skip_bad=skip_bad, progress=progress)
+    result = evaluate(model, stream.batches("all", config.eval_batch_size), config, progress=progress,
+                      total=stream.num_batches("all", config.eval_batch_size))
+    result["objects"] = stream.counts()["objects"]
+    result["task_name"] = payload["task"]
     result["checkpoint"] = str(path)
     return result
