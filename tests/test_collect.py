@@ -200,3 +200,28 @@ def test_ray_and_local_workers_write_identical_records(objects, tmp_path):
         ray_executor.close()
     assert summary["workers"] == 2
     _same(_arrays(tmp_path / "local"), _arrays(tmp_path / "ray"))
+
+
+def test_workers_end_when_their_coordinator_is_killed(tmp_path):
+    """A coordinator SIGKILLed with its worker pool up leaves no orphan worker behind."""
+    script = textwrap.dedent("""
+        import os, time
+        from tognet.collect.workers import LocalExecutor
+        ex = LocalExecutor(1)
+        pool = ex._new_pool()
+        pool.submit(os.getpid).result()
+        print(*pool._processes, flush=True)
+        time.sleep(60)
+    """)
+    proc = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True)
+    worker = int(proc.stdout.readline())
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    deadline = time.time() + 15
+    while time.time() < deadline and Path(f"/proc/{worker}").exists():
+        status = Path(f"/proc/{worker}/status").read_text() if Path(f"/proc/{worker}").exists() else ""
+        if "State:\tZ" in status:
+            break
+        time.sleep(0.2)
+    alive = Path(f"/proc/{worker}").exists() and "State:\tZ" not in Path(f"/proc/{worker}/status").read_text()
+    assert not alive, "the worker outlived its coordinator"

@@ -89,10 +89,8 @@ def train_round(data_dirs: Sequence[Path], task: str, out: Path, preset: Pipelin
     config = preset.train.replace(epochs=epochs)
     resume = (out / "last.pt").is_file()
     t0 = time.perf_counter()
-    import inspect  # TEMPORARY until train() has init_from
-
-    extra = {"init_from": init_from} if "init_from" in inspect.signature(train).parameters else {}
-    result = train(list(data_dirs), task, out, config, resume=resume, progress=progress, log=log, **extra)
+    result = train(list(data_dirs), task, out, config, resume=resume, progress=progress, log=log,
+                   init_from=init_from)
     best_val = result.best.get("val") or {}
     done = {"best": str(result.best_path), "epochs_run": result.epochs_run,
             "best_epoch": result.best.get("epoch"), "seconds": time.perf_counter() - t0,

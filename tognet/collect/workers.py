@@ -42,6 +42,20 @@ def default_workers() -> int:
         return max(1, os.cpu_count() or 1)
 
 
+def _exit_with_parent(parent: int, every: float = 1.0) -> None:
+    """Worker initialiser: a thread that ends this worker once its coordinator is gone (killed, even with
+    SIGKILL), so no orphan keeps a core busy; a spawned worker otherwise waits on its queue for ever."""
+    import threading
+    import time
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(every)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="tognet-parent-watch", daemon=True).start()
+
+
 class LocalExecutor:
     """``workers`` local processes (spawned: a fresh interpreter, no torch threads inherited from a parent
     that trains). ``workers=0`` runs the jobs in this process (debugging; a crash ends the run)."""
@@ -54,7 +68,8 @@ class LocalExecutor:
         self._pool: ProcessPoolExecutor | None = None
 
     def _new_pool(self) -> ProcessPoolExecutor:
-        return ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"))
+        return ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
+                                   initializer=_exit_with_parent, initargs=(os.getpid(),))
 
     def run(self, jobs: list[Any], on_result: OnResult, log: Callable[[str], None], fn: JobFn = run_job
             ) -> None:

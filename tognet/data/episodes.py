@@ -183,8 +183,9 @@ def _check_column(name: str, value: Any, n: int | None) -> np.ndarray:
     else:
         if arr.dtype.kind not in "biuf":
             raise ValueError(f"field '{name}': expected numbers, got dtype {arr.dtype}")
-        integral = np.all(np.isfinite(arr) & (arr == np.round(arr))) if arr.dtype.kind == "f" else True
-        if dtype.kind in "iu" and not integral:
+        integral = dtype.kind not in "iu" or arr.dtype.kind != "f" or bool(
+            np.all(np.isfinite(arr) & (arr == np.round(arr))))  # only integer fields need the check
+        if not integral:
             raise ValueError(f"field '{name}': expected integers, got non-integer values")
         arr = arr.astype(dtype, copy=False)
     if arr.shape[1:] != shape or (n is not None and arr.shape[0] != n):
