@@ -19,3 +19,20 @@ def tiny_models(root: Path) -> dict[str, Path]:
                                        n_objects=8)
         out[task] = train([data], task, root / task, cfg, progress=False, log=lambda s: None).best_path
     return out
+
+
+def renderer_available() -> bool:
+    """Whether MuJoCo's offscreen renderer starts here (EGL; `make system-deps` installs it)."""
+    import os
+
+    import mujoco
+
+    from tognet.sim import SimConfig  # noqa: F401  (sets MUJOCO_GL before the renderer starts)
+
+    try:
+        mujoco.Renderer(mujoco.MjModel.from_xml_string("<mujoco/>"), 8, 8).close()
+    except Exception:
+        if os.environ.get("TOGNET_REQUIRE_GL") == "1":
+            raise
+        return False
+    return True

@@ -1,0 +1,36 @@
+"""The evaluation ``make run`` shows: the shipped models, every method, both tasks, all three categories,
+at a scale that runs in a few minutes on two cores (the README's table is the same run at 300+ scenes)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from tognet.evaluate.config import EvalConfig
+from tognet.planning.config import OracleConfig, PlanConfig
+
+#: Demo scale: scenes per (task, category) and test objects per category.
+DEMO_EPISODES = 20
+DEMO_OBJECTS = 8
+
+
+def demo_config() -> EvalConfig:
+    """The default settings with a cheaper Oracle search (6 grasps both ways round, at most 48 trials)."""
+    return EvalConfig(plan=PlanConfig(oracle=OracleConfig(grasps=6, seeds=2, max_trials=48)))
+
+
+def run_demo(out: str | Path = "runs/demo/evaluation", *, episodes: int = DEMO_EPISODES,
+             test_objects: int = DEMO_OBJECTS, workers: int | None = None, progress: bool = True,
+             grasp_model: str | Path | None = None, task_models: dict[str, str | Path | None] | None = None,
+             run_dir: str | Path | None = None, log: Callable[[str], None] = print) -> dict[str, Any]:
+    """Evaluate all methods on both tasks and the three test categories (``episodes`` scenes each, on
+    ``test_objects`` objects per category) with the shipped checkpoints unless others are given; writes
+    ``out/report.html``. Run again, it resumes (and only re-renders the report when everything is there)."""
+    from tognet.evaluate.harness import run_evaluation
+
+    return run_evaluation(out, ["sweeping", "hammering"], "all", categories=["pg-primitive", "pg-complex",
+                                                                             "realistic"],
+                          episodes=episodes, test_object_count=test_objects, grasp_model=grasp_model,
+                          task_models=task_models, config=demo_config(), workers=workers, resume=True,
+                          progress=progress, run_dir=run_dir, log=log)

@@ -1,0 +1,294 @@
+"""The report's pictures: the results bar chart, sweeping by can count, the qualitative grasps, episode
+animations and the training curves of each self-supervision round."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tognet.collect.jobs import JobOutput
+from tognet.evaluate.config import EvalConfig
+from tognet.objects.record import ObjectRecord
+
+#: A colour per method (baselines cool and pale, ours strong, the Oracle dark and hatched).
+COLOURS = {
+    "Antipodal+Random": "#9e9e9e",
+    "Task_Agn+Random": "#9ecae1",
+    "Task_Agn+Trained": "#3182bd",
+    "Task_Ori+Random": "#fdae6b",
+    "TOG-Net": "#d94801",
+    "Oracle": "#404040",
+}
+
+
+def _plt() -> Any:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _bars(ax: Any, groups: Sequence[str], methods: Sequence[str], cell: Any, title: str) -> None:
+    """Grouped bars: one group per entry of ``groups``, one bar per method; ``cell(group, method)`` gives
+    (rate, (low, high), valid) or None."""
+    width = 0.8 / max(1, len(methods))
+    x = np.arange(len(groups))
+    for i, m in enumerate(methods):
+        rates, lo, hi = [], [], []
+        for g in groups:
+            c = cell(g, m)
+            r = c[0] if c and c[0] is not None else np.nan
+            rates.append(100 * r)
+            lo.append(100 * (r - c[1][0]) if c and c[0] is not None else 0)
+            hi.append(100 * (c[1][1] - r) if c and c[0] is not None else 0)
+        ax.bar(x + (i - (len(methods) - 1) / 2) * width, rates, width, yerr=[lo, hi], capsize=2,
+               color=COLOURS.get(m, "#888888"), edgecolor="white" if m != "Oracle" else "black",
+               hatch="//" if m == "Oracle" else None, label=m, error_kw={"elinewidth": 0.8})
+    ax.set_xticks(x, groups)
+    ax.set_ylim(0, 100)
+    ax.set_ylabel("task success (%)")
+    ax.set_title(title)
+    ax.grid(axis="y", alpha=0.3)
+    ax.set_axisbelow(True)
+
+
+def results_chart(results: dict[str, Any], path: Path) -> Path:
+    """The paper's simulation figure: per task, success rate by category and method, 95 % intervals."""
+    from tognet.evaluate.harness import main_subset
+
+    plt = _plt()
+    tasks = list(results["tasks"])
+    cats = [c for c in results["categories"] if c != "all"]
+    methods = results["methods"]
+    per_task = max(5.0, 0.3 * len(cats) * len(methods) + 1.5)
+    fig, axes = plt.subplots(1, len(tasks), figsize=(per_task * len(tasks), 4.2), squeeze=False)
+    for ax, task in zip(axes[0], tasks, strict=True):
+        sub = main_subset(task)
+
+        def cell(cat: str, m: str, task: str = task, sub: str = sub) -> Any:
+            s = results["tasks"][task]["categories"][cat][sub]["methods"][m]
+            return s["rate"], s["ci"], s["valid"]
+
+        _bars(ax, cats, methods, cell, f"{task}" + (" (one or two cans)" if task == "sweeping" else ""))
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncols=len(methods), fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, 0.07, 1, 1))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def cans_chart(results: dict[str, Any], path: Path) -> Path | None:
+    """Sweeping by number of cans (one, two, the mix), all categories together: where the grasp pays."""
+    if "sweeping" not in results["tasks"]:
+        return None
+    plt = _plt()
+    cats = results["categories"]
+    cat = "all" if "all" in cats else cats[0]
+    tres = results["tasks"]["sweeping"]["categories"][cat]
+    subsets = list(tres)
+
+    def cell(sub: str, m: str) -> Any:
+        s = tres[sub]["methods"][m]
+        return s["rate"], s["ci"], s["valid"]
+
+    fig, ax = plt.subplots(figsize=(8.5, 4.0))
+    _bars(ax, subsets, results["methods"], cell, f"sweeping by number of cans ({cat})")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def qualitative_figure(objects: Sequence[ObjectRecord], models: dict[str, Any], config: EvalConfig,
+                       path: Path, seed: int = 0) -> Path | None:
+    """For each object, one depth image (the object alone on the table) with the task-agnostic grasp (CEM on
+    the grasp-only model's Q_G) and each task's TOG-Net grasp (CEM on its Q_T) drawn on it; the same
+    antipodal candidates start every search. ``models``: loaded predictors by name (``grasping``,
+    ``sweeping``, ``hammering``; those present are drawn)."""
+    from tognet.collect.policies import CEMGrasp, SceneView
+    from tognet.grasping.antipodal import sample_antipodal
+    from tognet.grasping.depth import prepare_depth
+    from tognet.grasping.draw import depth_to_rgb, jaw_endpoints
+    from tognet.sim import SimulationError, Simulator
+
+    columns = [(n, label, "grasp" if n == "grasping" else "task") for n, label in
+               (("grasping", "task-agnostic (Q_G)"), ("sweeping", "sweeping (Q_T)"),
+                ("hammering", "hammering (Q_T)")) if n in models]
+    if not columns or not objects:
+        return None
+    crop = next((m.crop_config for m in models.values() if getattr(m, "crop_config", None) is not None), None)
+    if crop is None:
+        from tognet.grasping.crops import CropConfig
+
+        crop = CropConfig()
+    rows = []
+    for obj in objects:
+        try:
+            sim = Simulator(config.sim, "grasping", obj)
+            obs = sim.reset(seed)
+        except SimulationError:
+            continue
+        scene = prepare_depth(obs.depth, obs.camera)
+        cands = sample_antipodal(scene, None, config.plan.antipodal, np.random.default_rng(seed))
+        if len(cands) == 0:
+            continue
+        view = SceneView(scene, cands, None, crop)
+        grasps = []
+        for name, _label, kind in columns:
+            best, score = CEMGrasp(config.plan.policy, models[name], kind=kind).best(
+                view, np.random.default_rng([seed, 1]))
+            grasps.append((best, score))
+        rows.append((obj, obs, cands, grasps))
+    if not rows:
+        return None
+    plt = _plt()
+    per_row = 2 if len(rows) > 2 else 1  # objects side by side
+    n_rows = -(-len(rows) // per_row)
+    fig, axes = plt.subplots(n_rows, per_row * len(columns), figsize=(2.5 * per_row * len(columns),
+                                                                      2.45 * n_rows), squeeze=False)
+    for ax in axes.flat:
+        ax.axis("off")
+    colours = {"grasping": "#3182bd", "sweeping": "#d94801", "hammering": "#31a354"}
+    for k, (obj, obs, cands, grasps) in enumerate(rows):
+        r, first = divmod(k, per_row)
+        rgb = depth_to_rgb(obs.depth)
+        u, v = cands.pixels[:, 0], cands.pixels[:, 1]
+        half = max(45.0, 0.6 * max(np.ptp(u), np.ptp(v)) + 25)
+        cu, cv = 0.5 * (u.min() + u.max()), 0.5 * (v.min() + v.max())
+        box = (max(0, int(cu - half)), min(rgb.shape[1], int(cu + half)),
+               max(0, int(cv - half)), min(rgb.shape[0], int(cv + half)))
+        for c, ((name, label, _kind), (g, score)) in enumerate(zip(columns, grasps, strict=True)):
+            ax = axes[r][first * len(columns) + c]
+            ax.axis("on")
+            ax.imshow(rgb[box[2]:box[3], box[0]:box[1]], extent=(box[0], box[1], box[3], box[2]))
+            (u0, v0), (u1, v1) = jaw_endpoints(obs.camera, g[None], np.array([0.07]))[0]
+            ax.plot([u0, u1], [v0, v1], "-", color=colours[name], lw=3)
+            ax.plot([u0, u1], [v0, v1], "o", color="white", ms=5, mec=colours[name], mew=2)
+            ax.set_xlim(box[0], box[1])
+            ax.set_ylim(box[3], box[2])
+            ax.set_xticks([])
+            ax.set_yticks([])
+            ax.set_title(f"{label} {score:.2f}", fontsize=7.5)
+            if c == 0:
+                ax.set_ylabel(obj.object_id, fontsize=7.5)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def animate_episode(config: EvalConfig, task: str, obj: ObjectRecord, scene_seed: int,
+                    grasp: Sequence[float], action: Sequence[float], path: Path,
+                    size: tuple[int, int] = (256, 192)) -> tuple[Path, Any]:
+    """Run one evaluation episode again with the renderer attached and write it as a GIF that plays at the
+    real speed (a frame per 50 ms of simulated time at most); returns the path and the rerun's TrialResult
+    (with the renderer attached the cans stay in the full model, so a rare outcome can differ from the
+    unrendered trial's)."""
+    from tognet.geometry import Grasp
+    from tognet.sim import Simulator
+    from tognet.sim.render import GifRecorder
+
+    sim = Simulator(config.sim, task, obj)
+    sim.reset(scene_seed)
+    recorder = GifRecorder(sim.model, width=size[0], height=size[1], every=1, lookat=(0.0, 0.05, 0.0),
+                           distance=1.35, azimuth=90.0, elevation=-45.0, max_fps=20)
+    sim._recorder = recorder
+    try:
+        result = sim.execute(Grasp.from_array(np.asarray(grasp, dtype=np.float64)),
+                             np.asarray(action, dtype=np.float64), seed=config.trial_seed)
+        recorder.save(path, fps=20, max_frames=90)
+    finally:
+        sim._recorder = None
+        recorder.close()
+    return path, result
+
+
+@dataclass(frozen=True)
+class GifJob:
+    """One episode to animate, as a job for the collection's executors (``index`` and ``obj``)."""
+
+    index: int
+    obj: ObjectRecord
+    task: str
+    scene_seed: int
+    grasp: tuple[float, ...]
+    action: tuple[float, ...]
+    path: str
+    config: EvalConfig
+
+
+def run_gif_job(job: GifJob) -> JobOutput:
+    """Animate one episode in a worker; the rerun's failure reason in ``stats``, or the error."""
+    try:
+        _, result = animate_episode(job.config, job.task, job.obj, job.scene_seed, job.grasp, job.action,
+                                    Path(job.path))
+    except Exception as exc:  # no GL backend, a bad object: the report says so and goes on
+        return JobOutput(job.index, {}, {}, error=f"{type(exc).__name__}: {exc}")
+    return JobOutput(job.index, {}, {"failure": result.failure.value})
+
+
+def find_run_dir(task_model: Path | None) -> Path | None:
+    """The pipeline run a task model lies in (``RUN/<task>/round<k>/model/best.pt``), if it does."""
+    if task_model is None:
+        return None
+    parents = Path(task_model).resolve().parents
+    if len(parents) > 3 and (parents[3] / "preset.json").is_file():
+        return parents[3]
+    return None
+
+
+def training_curves(run_dir: Path, tasks: Sequence[str], path: Path) -> Path | None:
+    """Per task, the held-out loss and AUCs of each round's training, rounds one after another (dashed
+    lines between rounds), from the run's ``<task>/round<k>/model/metrics.json``."""
+    series = {}
+    for task in tasks:
+        rounds = sorted((run_dir / task).glob("round*/model/metrics.json"),
+                        key=lambda p: int(p.parent.parent.name.removeprefix("round")))
+        hist = []
+        for k, file in enumerate(rounds, start=1):
+            for h in json.loads(file.read_text()).get("history", []):
+                hist.append((k, h))
+        if hist:
+            series[task] = hist
+    if not series:
+        return None
+    plt = _plt()
+    fig, axes = plt.subplots(len(series), 2, figsize=(10, 3.0 * len(series)), squeeze=False)
+    for row, (task, hist) in enumerate(series.items()):
+        from matplotlib.ticker import MaxNLocator
+
+        x = np.arange(1, len(hist) + 1)
+        ax_l, ax_a = axes[row]
+        for key, style in (("loss", "-"), ("grasp", "--"), ("task", "-."), ("action", ":")):
+            ax_l.plot(x, [h["val"].get(key, np.nan) if h.get("val") else np.nan for _, h in hist], style,
+                      label=f"val {key}")
+        for head, style in (("grasp", "--"), ("task_given_grasp", "-."), ("task", "-")):
+            vals = [((h.get("val") or {}).get("metrics", {}).get(head) or {}).get("auc") for _, h in hist]
+            ax_a.plot(x, [np.nan if v is None else v for v in vals], style, label=f"AUC {head}")
+        for ax in (ax_l, ax_a):
+            for i in range(1, len(hist)):
+                if hist[i][0] != hist[i - 1][0]:
+                    ax.axvline(i + 0.5, color="grey", ls="--", lw=0.8)
+            ax.set_xlabel("epoch (rounds one after another)")
+            ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=7)
+        ax_l.set_title(f"{task}: held-out loss per round")
+        ax_a.set_title(f"{task}: held-out AUC per round")
+        ax_a.set_ylim(0.4, 1.0)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path

@@ -1,0 +1,402 @@
+"""The evaluation harness: every method on the same unseen test scenes, in parallel and resumable.
+
+    results = run_evaluation("runs/eval", ["hammering"], "all", categories=["pg-primitive"], episodes=300)
+
+    OUT/
+      evaluation.json          the settings (tasks, methods, categories, episodes, config, models + sha256)
+      objects/<kind>-test/     the generated test objects (split "test": never used in training)
+      <task>/<category>/       the job files (tognet.evaluate.store)
+      results.json             per task, category (and sweeping's can counts), method: success rate with
+                               its 95 % Wilson interval, grasp success, failure reasons; paired differences
+                               to TOG-Net with their intervals; the fraction of the Oracle's rate; timings
+      report.html, report.md   tognet.evaluate.report
+
+Killed at any moment and run again with ``resume=True`` and the same settings, it runs exactly the jobs
+that are missing. Jobs run on the collection's executors (local processes or Ray).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections import Counter, defaultdict
+from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tognet.collect.jobs import JobOutput
+from tognet.collect.rounds import file_digest
+from tognet.collect.workers import Executor, make_executor
+from tognet.errors import TognetError
+from tognet.evaluate.config import CATEGORIES, EvalConfig
+from tognet.evaluate.jobs import EvalJob, plan_eval_jobs, run_eval_job
+from tognet.evaluate.stats import paired_difference, wilson
+from tognet.evaluate.store import EvalStore
+from tognet.objects.record import ObjectRecord
+from tognet.planning.planners import METHODS, NEEDS, check_methods
+
+SETTINGS = "evaluation.json"
+RESULTS = "results.json"
+REFERENCE = "TOG-Net"
+#: Sweeping's scenes by number of cans (the paper's mix is both); hammering has one subset.
+SUBSETS = {"sweeping": {"mix": None, "one-can": 1, "two-can": 2}, "hammering": {"all": None}}
+
+
+class EvalError(TognetError):
+    """An evaluation cannot start or continue (an existing folder, missing models, bad objects...)."""
+
+
+def resolve_models(tasks: Sequence[str], methods: Sequence[str], grasp_model: str | Path | None = None,
+                   task_models: dict[str, str | Path | None] | None = None) -> dict[str, Path]:
+    """The checkpoint paths the methods need: ``grasping`` and each task's (the shipped ones unless given).
+    A task model that is not needed but is given (or shipped) is kept too, for the qualitative figure."""
+    from tognet.models import default_checkpoint
+
+    task_models = task_models or {}
+    needs = {n for m in methods for n in NEEDS[m]}
+    wanted: dict[str, str | Path | None] = {"grasping": grasp_model, **{t: task_models.get(t) for t in tasks}}
+    for other, path in task_models.items():
+        wanted.setdefault(other, path)
+    out: dict[str, Path] = {}
+    for name, path in wanted.items():
+        required = ("grasp" in needs) if name == "grasping" else (name in tasks and "task" in needs)
+        if path is None:
+            if not required:
+                continue
+            path = default_checkpoint(name)
+        path = Path(path)
+        if not path.is_file():
+            raise EvalError(f"checkpoint not found: {path}")
+        out[name] = path
+    return out
+
+
+def check_models(models: dict[str, Path]) -> None:
+    """Each checkpoint is of the task it is given for (the grasp-only one of ``grasping``)."""
+    from tognet.collect.jobs import load_model
+
+    for name, path in models.items():
+        trained = load_model(str(path)).task
+        if trained is not None and trained != name:
+            raise EvalError(f"{path}: a {trained} model, given as the {name} model")
+
+
+def test_objects(category: str, count: int, out: Path, workers: int = 1, progress: bool = True,
+                 log: Callable[[str], None] = print) -> list[ObjectRecord]:
+    """The first ``count`` test objects of a category (all 44 realistic ones at most), generated into
+    ``out/objects/<kind>-test`` once and loaded afterwards."""
+    from tognet.objects.generate import generate_set, realistic_count
+    from tognet.objects.record import load_catalog
+
+    kind = CATEGORIES[category]
+    if kind == "realistic":
+        count = min(count, realistic_count())
+    folder = out / "objects" / f"{kind}-test"
+    have = load_catalog(folder) if (folder / "catalog.json").is_file() else []
+    if len(have) < count:
+        log(f"generating {count - len(have)} {category} test objects into {folder}")
+        generate_set(kind, "test", count - len(have), folder, start=len(have), progress=progress,
+                     workers=max(1, workers))
+        have = load_catalog(folder)
+    return sorted(have, key=lambda r: r.object_id)[:count]
+
+
+def user_objects(folder: Path) -> tuple[str, list[ObjectRecord]]:
+    """(category name, records) of an object set folder; training objects are refused."""
+    from tognet.objects.record import load_catalog
+
+    records = load_catalog(folder)
+    train = [r.object_id for r in records if r.split == "train"]
+    if train:
+        raise EvalError(f"{folder}: holds training objects ({train[0]}, ...); evaluate on unseen test "
+                        "objects")
+    return folder.resolve().name, records
+
+
+def _check_out(out: Path, settings: dict[str, Any], resume: bool) -> None:
+    if out.exists() and not out.is_dir():
+        raise EvalError(f"{out}: exists and is not a folder; pass another --out")
+    saved = out / SETTINGS
+    if saved.is_file():
+        if not resume:
+            raise EvalError(f"{out}: already holds an evaluation; pass --resume to continue it or another "
+                            "--out")
+        old = json.loads(saved.read_text())
+        new = json.loads(json.dumps(settings))
+        if old != new:
+            diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
+            raise EvalError(f"{saved}: the evaluation was started with other settings (differs in "
+                            f"{', '.join(diff)}); resume with the same ones or use another --out")
+    elif resume and out.is_dir() and any(out.iterdir()):
+        raise EvalError(f"{out}: no {SETTINGS}, so not an evaluation to resume")
+    out.mkdir(parents=True, exist_ok=True)
+    saved.write_text(json.dumps(settings, indent=2) + "\n")
+
+
+def run_evaluation(
+    out: str | Path,
+    tasks: Sequence[str],
+    methods: Sequence[str] | str = "all",
+    *,
+    categories: Sequence[str] = (),
+    object_dirs: Sequence[str | Path] = (),
+    episodes: int = 100,
+    test_object_count: int | None = None,
+    grasp_model: str | Path | None = None,
+    task_models: dict[str, str | Path | None] | None = None,
+    config: EvalConfig | None = None,
+    executor: Executor | None = None,
+    workers: int | None = None,
+    ray: bool = False,
+    ray_address: str | None = None,
+    resume: bool = False,
+    progress: bool = True,
+    report: bool = True,
+    run_dir: str | Path | None = None,
+    animations: bool = True,
+    log: Callable[[str], None] = print,
+) -> dict[str, Any]:
+    """Evaluate ``methods`` on ``tasks`` with ``episodes`` scenes per (task, category); every method runs
+    on every scene. ``categories``: of :data:`CATEGORIES` (default: all three unless ``object_dirs`` are
+    given), each with a new test object per job unless ``test_object_count`` caps their number (the
+    realistic set has 44); ``object_dirs``: object set folders evaluated as categories of their own.
+    Writes and returns ``results.json``'s content; with ``report``, also the report (``run_dir``: a
+    pipeline run whose training curves to show; by default the task model's run when it lies in one)."""
+    from tognet.tasks import TASK_NAMES
+
+    out = Path(out)
+    tasks = list(dict.fromkeys(tasks))
+    bad = [t for t in tasks if t not in TASK_NAMES]
+    if bad or not tasks:
+        raise EvalError(f"unknown task(s) {bad}; known: {', '.join(TASK_NAMES)}")
+    methods = check_methods(methods)
+    if episodes < 1:
+        raise EvalError("episodes must be >= 1")
+    categories = list(dict.fromkeys(categories or ([] if object_dirs else list(CATEGORIES))))
+    unknown = [c for c in categories if c not in CATEGORIES]
+    if unknown:
+        raise EvalError(f"unknown category {unknown}; known: {', '.join(CATEGORIES)} (or --objects DIR)")
+    config = config or EvalConfig()
+    models = resolve_models(tasks, methods, grasp_model, task_models)
+    check_models(models)
+    users = [user_objects(Path(d)) for d in object_dirs]
+    names = categories + [name for name, _ in users]
+    if len(set(names)) != len(names):
+        raise EvalError(f"two object sets are called the same: {names}")
+    settings = {
+        "tasks": tasks, "methods": list(methods), "categories": names, "episodes": episodes,
+        "test_object_count": test_object_count,
+        "object_dirs": [str(Path(d).resolve()) for d in object_dirs], "config": config.to_dict(),
+        "config_hash": config.fingerprint(),
+        "models": {k: {"path": str(v.resolve()), "sha256": file_digest(v)} for k, v in models.items()},
+    }
+    _check_out(out, settings, resume)
+    own = executor is None
+    executor = executor or make_executor(workers, ray, ray_address)
+    t_start = time.perf_counter()
+    try:
+        n_objects = -(-episodes // config.scenes_per_job)  # one object per job ...
+        if test_object_count is not None:
+            n_objects = min(n_objects, test_object_count)  # ... or fewer, visited in turn
+        objects = {c: test_objects(c, n_objects, out, max(1, executor.workers), progress, log)
+                   for c in categories}
+        objects.update(dict(users))
+        stores: dict[tuple[str, str], EvalStore] = {}
+        jobs: list[EvalJob] = []
+        for task in tasks:
+            for cat, recs in objects.items():
+                grasp = str(models["grasping"]) if "grasping" in models else None
+                tmodel = str(models[task]) if task in models else None
+                planned = plan_eval_jobs(task, cat, recs, episodes, methods, config, grasp, tmodel)
+                meta = {"task": task, "category": cat, "methods": list(methods), "episodes": episodes,
+                        "config_hash": config.fingerprint(), "jobs": len(planned),
+                        "objects": sorted({j.obj.object_id for j in planned}),
+                        "models": {k: settings["models"][k]["sha256"] for k in ("grasping", task)
+                                   if k in settings["models"]}}
+                store = stores[(task, cat)] = EvalStore(out / task / cat, meta)
+                jobs += [j for j in planned if j.index not in store.done]
+        total = len(tasks) * len(objects) * episodes * len(methods)
+        remaining = sum(j.planned for j in jobs)
+        if remaining < total:
+            log(f"{(total - remaining) // len(methods)} scenes already evaluated; running the other "
+                f"{remaining // len(methods)}")
+        errors: list[str] = []
+        bar = None
+        if progress:
+            from tqdm import tqdm
+
+            bar = tqdm(total=total, initial=total - remaining, desc="evaluate", unit="ep", mininterval=1.0,
+                       dynamic_ncols=True)
+        done_now = 0
+        tally: Counter[str] = Counter()
+        t0 = time.perf_counter()
+
+        def on_result(job: EvalJob, output: JobOutput) -> None:
+            nonlocal done_now
+            info = {k: v for k, v in output.stats.items() if not k.startswith("bad_scene:")}
+            if output.error:
+                errors.append(output.error)
+                info["error"] = output.error
+                log(f"skipped job {job.task}/{job.category}/{job.index}: {output.error}")
+            records = list(output.columns.get("records", []))  # type: ignore[arg-type]
+            stores[(job.task, job.category)].add(job.index, records, info)
+            done_now += job.planned
+            for r in records:
+                if r["valid"]:
+                    tally[r["method"]] += 1
+                    tally[r["method"] + " ok"] += int(r["task_success"])
+            if bar is not None:
+                bar.update(job.planned)
+                shown = [m for m in (REFERENCE, "Oracle") if tally[m]]
+                bar.set_postfix_str(", ".join(f"{m} {tally[m + ' ok'] / tally[m]:.0%}" for m in shown),
+                                    refresh=False)
+
+        try:
+            executor.run(jobs, on_result, log, fn=run_eval_job)
+        finally:
+            if bar is not None:
+                bar.close()
+        seconds_now = time.perf_counter() - t0
+        records = [r for s in stores.values() for r in s.records()]
+        job_errors = [i["error"] for s in stores.values() for i in s.info().values() if i.get("error")]
+        results = summarise(records, tasks, methods, names)
+        results["settings"] = settings
+        results["run"] = {"episodes_run_now": done_now, "seconds_now": seconds_now,
+                          "episodes_per_s_now": done_now / seconds_now if seconds_now > 0 else None,
+                          "workers": executor.workers, "evaluation_seconds": time.perf_counter() - t_start,
+                          "job_errors": job_errors}
+        (out / RESULTS).write_text(json.dumps(results, indent=2, default=_json_default) + "\n")
+        log(format_results(results))
+        if report:
+            from tognet.evaluate.report import write_report
+
+            t_report = time.perf_counter()
+            paths = write_report(out, results, records, models=models, run_dir=run_dir, animations=animations,
+                                 config=config, objects=objects, executor=executor, log=log)
+            log(f"report: {paths[0]} ({paths[0].stat().st_size / 1e6:.1f} MB, "
+                f"{time.perf_counter() - t_report:.0f} s)")
+    finally:
+        if own:
+            executor.close()
+    return results
+
+
+def _json_default(x: Any) -> Any:
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, Path):
+        return str(x)
+    raise TypeError(f"not JSON serialisable: {type(x).__name__}")
+
+
+# --- statistics of the records ------------------------------------------------------------------------
+def rate_stats(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """Episodes, valid trials, task and grasp successes with rates and 95 % Wilson intervals, failure
+    reasons (valid failed trials), mean planning and execution seconds."""
+    valid = [r for r in records if r["valid"]]
+    n = len(valid)
+    k = sum(bool(r["task_success"]) for r in valid)
+    g = sum(bool(r["grasp_success"]) for r in valid)
+    failures = Counter(r["failure"] for r in valid if not r["task_success"])
+    plan = [r["timing"]["total"] for r in records if r.get("timing")]
+    execute = [r["execute_seconds"] for r in records if r.get("execute_seconds") is not None]
+    return {
+        "episodes": len(records), "valid": n, "invalid": len(records) - n,
+        "successes": k, "rate": k / n if n else None, "ci": list(wilson(k, n)) if n else None,
+        "grasp_successes": g, "grasp_rate": g / n if n else None,
+        "grasp_ci": list(wilson(g, n)) if n else None,
+        "failures": dict(failures.most_common()),
+        "plan_seconds": float(np.mean(plan)) if plan else None,
+        "execute_seconds": float(np.mean(execute)) if execute else None,
+    }
+
+
+def _outcomes(records: Iterable[dict[str, Any]]) -> dict[tuple[str, int], bool]:
+    return {(r["object_id"], int(r["scene_seed"])): bool(r["task_success"]) for r in records if r["valid"]}
+
+
+def summarise(records: Sequence[dict[str, Any]], tasks: Sequence[str], methods: Sequence[str],
+              categories: Sequence[str]) -> dict[str, Any]:
+    """results.json's numbers from the records: per task, category (and ``all`` when there are several),
+    subset (sweeping: mix, one-can, two-can) and method: :func:`rate_stats`; ``tognet_minus_method``: the
+    paired difference of TOG-Net's rate and the method's over the scenes where both trials are valid,
+    with its 95 % interval (Newcombe); ``oracle_fraction``: the method's rate over the Oracle's."""
+    groups: dict[tuple[str, str, str], list[dict[str, Any]]] = defaultdict(list)
+    for r in records:
+        groups[(r["task"], r["category"], r["method"])].append(r)
+    cats = list(categories) + (["all"] if len(categories) > 1 else [])
+    out: dict[str, Any] = {"methods": list(methods), "categories": cats, "reference": REFERENCE, "tasks": {}}
+    for task in tasks:
+        tcats: dict[str, Any] = {}
+        for cat in cats:
+            members = list(categories) if cat == "all" else [cat]
+            subsets: dict[str, Any] = {}
+            for sub, n_cans in SUBSETS.get(task, {"all": None}).items():
+                per_method = {m: [r for c in members for r in groups[(task, c, m)]
+                                  if n_cans is None or r.get("n_cans") == n_cans] for m in methods}
+                stats = {m: rate_stats(v) for m, v in per_method.items()}
+                diffs = {}
+                if REFERENCE in methods:
+                    ref = _outcomes(per_method[REFERENCE])
+                    for m in methods:
+                        if m == REFERENCE:
+                            continue
+                        other = _outcomes(per_method[m])
+                        keys = sorted(set(ref) & set(other))
+                        diffs[m] = paired_difference([ref[k] for k in keys], [other[k] for k in keys])
+                oracle = stats.get("Oracle", {}).get("rate")
+                fraction = {m: (s["rate"] / oracle if oracle and s["rate"] is not None else None)
+                            for m, s in stats.items()}
+                subsets[sub] = {"methods": stats, "tognet_minus_method": diffs, "oracle_fraction": fraction}
+            tcats[cat] = subsets
+        timing = {m: _timing([r for c in categories for r in groups[(task, c, m)]]) for m in methods}
+        out["tasks"][task] = {"categories": tcats, "timing": timing}
+    return out
+
+
+def _timing(records: Sequence[dict[str, Any]]) -> dict[str, float]:
+    stages: dict[str, list[float]] = defaultdict(list)
+    for r in records:
+        for k, v in (r.get("timing") or {}).items():
+            stages[k].append(v)
+        if r.get("execute_seconds") is not None:
+            stages["execute"].append(r["execute_seconds"])
+        if r.get("search_trials") is not None:
+            stages["search_trials"].append(r["search_trials"])
+    return {k: float(np.mean(v)) for k, v in stages.items()}
+
+
+def _pct(x: float | None) -> str:
+    return "n/a" if x is None else f"{100 * x:.1f}"
+
+
+def main_subset(task: str) -> str:
+    """The subset reported as the task's headline (sweeping: the paper's mix of one and two cans)."""
+    return next(iter(SUBSETS.get(task, {"all": None})))
+
+
+def format_results(results: dict[str, Any]) -> str:
+    """A plain-text summary: per task and category, each method's task success (95 % interval)."""
+    lines = []
+    for task, tres in results["tasks"].items():
+        sub = main_subset(task)
+        lines.append(f"{task} ({sub}): task success % [95 % interval] (valid trials)")
+        cats = list(tres["categories"])
+        rows = [["method", *cats]]
+        for m in results["methods"]:
+            row = [m]
+            for c in cats:
+                s = tres["categories"][c][sub]["methods"][m]
+                ci = s["ci"] or [None, None]
+                row.append(f"{_pct(s['rate'])} [{_pct(ci[0])}, {_pct(ci[1])}] ({s['valid']})")
+            rows.append(row)
+        widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+        for row in rows:
+            cells = [row[0].ljust(widths[0])] + [c.rjust(w) for c, w in zip(row[1:], widths[1:], strict=True)]
+            lines.append("  " + "  ".join(cells))
+    return "\n".join(lines)
+
+
+__all__ = ["METHODS", "EvalError", "format_results", "rate_stats", "run_evaluation", "summarise"]

@@ -1,0 +1,413 @@
+"""The evaluation report: ``report.html`` (self-contained: pictures and animations inlined, opens from
+disk) and ``report.md`` (the same tables; pictures as files beside it in ``figures/`` and ``gifs/``)."""
+
+from __future__ import annotations
+
+import base64
+import datetime
+import html
+from collections import Counter
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from tognet.evaluate.config import EvalConfig
+from tognet.evaluate.harness import REFERENCE, main_subset
+from tognet.objects.record import ObjectRecord
+
+METHOD_NOTES = {
+    "Antipodal+Random": "a random NMS mode of the antipodal candidates (ranked by antipodal quality), held "
+                        "either way round at random; the baselines' random action (±5 cm, ±π/20 around the "
+                        "task's nominal start)",
+    "Task_Agn+Random": "CEM on the grasp-only model's Q_G (our stand-in for Dex-Net 2.0's GQ-CNN); random "
+                       "action",
+    "Task_Agn+Trained": "CEM on Q_G; the task model's action mean at that grasp",
+    "Task_Ori+Random": "CEM on the task model's Q_T = Q_T|G · Q_G; random action",
+    "TOG-Net": "CEM on Q_T; the task model's action mean (the paper's method)",
+    "Oracle": "simulator ground truth: NMS modes held both ways round, each tried in the simulator with "
+              "actions computed from the tool's pose in the hand, on execution-noise seeds the evaluation "
+              "does not use; an upper bound, not a method a robot could run",
+}
+
+
+@dataclass
+class Table:
+    """A table for both outputs: cells are text or (text, css class)."""
+
+    title: str
+    header: list[str]
+    rows: list[list[Any]] = field(default_factory=list)
+    note: str = ""
+    wrap: bool = False  # long text cells: left-aligned, wrapped
+
+    def html(self) -> str:
+        def cell(c: Any, tag: str) -> str:
+            text, cls = (c if isinstance(c, tuple) else (c, ""))
+            return f"<{tag}{f' class={cls!r}' if cls else ''}>{html.escape(str(text))}</{tag}>"
+
+        head = "".join(cell(h, "th") for h in self.header)
+        body = "".join("<tr>" + "".join(cell(c, "td") for c in row) + "</tr>" for row in self.rows)
+        note = f"<p class='note'>{html.escape(self.note)}</p>" if self.note else ""
+        title = f"<h3>{html.escape(self.title)}</h3>" if self.title else ""
+        return f"<div class='tbl'>{title}<table{' class=wrap' if self.wrap else ''}><tr>{head}</tr>{body}" \
+               f"</table>{note}</div>"
+
+    def markdown(self) -> str:
+        def text(c: Any) -> str:
+            t = str(c[0] if isinstance(c, tuple) else c).replace("|", "\\|")
+            return f"**{t}**" if isinstance(c, tuple) and c[1] in ("best", "pos") else t
+
+        lines = [f"### {self.title}", "", "| " + " | ".join(self.header) + " |",
+                 "|" + " --- |" * len(self.header)]
+        lines += ["| " + " | ".join(text(c) for c in row) + " |" for row in self.rows]
+        if self.note:
+            lines += ["", self.note]
+        return "\n".join(lines) + "\n"
+
+
+def _pct(x: float | None, digits: int = 1) -> str:
+    return "n/a" if x is None else f"{100 * x:.{digits}f}"
+
+
+def _rate_cell(s: dict[str, Any]) -> str:
+    if s["rate"] is None:
+        return "n/a (0)"
+    return f"{_pct(s['rate'])} [{_pct(s['ci'][0])}, {_pct(s['ci'][1])}] ({s['valid']})"
+
+
+def success_table(results: dict[str, Any], task: str, sub: str, title: str, grasp: bool = False) -> Table:
+    """Methods x categories: task (or grasp) success %, 95 % Wilson interval, valid trials; the best
+    method that is not the Oracle in bold."""
+    tres = results["tasks"][task]["categories"]
+    cats = list(tres)
+    table = Table(title, ["method", *cats])
+    key = "grasp_rate" if grasp else "rate"
+    best = {}
+    for c in cats:
+        rates = {m: s[key] for m, s in tres[c][sub]["methods"].items()
+                 if m != "Oracle" and s[key] is not None}
+        best[c] = max(rates.values()) if rates else None
+    for m in results["methods"]:
+        row: list[Any] = [m]
+        for c in cats:
+            s = tres[c][sub]["methods"][m]
+            if grasp:
+                text = "n/a" if s["grasp_rate"] is None else \
+                    f"{_pct(s['grasp_rate'])} [{_pct(s['grasp_ci'][0])}, {_pct(s['grasp_ci'][1])}]"
+            else:
+                text = _rate_cell(s)
+            top = m != "Oracle" and s[key] is not None and best[c] and s[key] == best[c]
+            row.append((text, "best") if top else text)
+        table.rows.append(row)
+    return table
+
+
+def paired_table(results: dict[str, Any], task: str, sub: str) -> Table | None:
+    """TOG-Net's rate minus each method's, over the same scenes, with the 95 % interval (Newcombe)."""
+    tres = results["tasks"][task]["categories"]
+    cats = list(tres)
+    if REFERENCE not in results["methods"]:
+        return None
+    table = Table(f"{task}: TOG-Net minus method, paired by scene (percentage points)", ["method", *cats],
+                  note="Positive: TOG-Net succeeds more often. Bold (green): the 95 % interval lies above "
+                       "zero, TOG-Net is better; italic (red): below zero, the method is better. In "
+                       "parentheses: the pairs (scenes where both trials are valid).")
+    for m in results["methods"]:
+        if m == REFERENCE:
+            continue
+        row: list[Any] = [m]
+        for c in cats:
+            d = tres[c][sub]["tognet_minus_method"].get(m)
+            if not d or d["pairs"] == 0:
+                row.append("n/a")
+                continue
+            text = f"{100 * d['difference']:+.1f} [{100 * d['ci'][0]:+.1f}, {100 * d['ci'][1]:+.1f}] " \
+                   f"({d['pairs']})"
+            row.append((text, "pos") if d["ci"][0] > 0 else (text, "neg") if d["ci"][1] < 0 else text)
+        table.rows.append(row)
+    return table
+
+
+def oracle_table(results: dict[str, Any], task: str, sub: str) -> Table | None:
+    """Each method's rate as a fraction of the Oracle's."""
+    if "Oracle" not in results["methods"]:
+        return None
+    tres = results["tasks"][task]["categories"]
+    cats = list(tres)
+    table = Table(f"{task}: fraction of the Oracle's success rate (%)", ["method", *cats])
+    for m in results["methods"]:
+        if m == "Oracle":
+            continue
+        table.rows.append([m, *(_pct(tres[c][sub]["oracle_fraction"].get(m), 0) for c in cats)])
+    return table
+
+
+def failure_table(results: dict[str, Any], task: str, sub: str) -> Table:
+    """Why trials failed: per method, each failure reason's share of the valid trials (all categories)."""
+    tres = results["tasks"][task]["categories"]
+    cat = "all" if "all" in tres else next(iter(tres))
+    stats = {m: tres[cat][sub]["methods"][m] for m in results["methods"]}
+    reasons = Counter()
+    for s in stats.values():
+        reasons.update(s["failures"])
+    cols = [r for r, _ in reasons.most_common()]
+    table = Table(f"{task}: outcomes of the valid trials ({cat}; % of each method's trials)",
+                  ["method", "success", *cols, "invalid"],
+                  note="grasp_failed: not held clear of the table after the lift; dropped: slipped out "
+                       "after a good grasp; collision_before_motion: the tool or hand hit a prop on the way; "
+                       "missed: never touched the targets; task_failed: touched them, not enough; "
+                       "unreachable: the plan lies outside the gripper's travel; no_grasp: no antipodal "
+                       "candidate.")
+    for m, s in stats.items():
+        n = s["valid"] or 1
+        table.rows.append([m, _pct(s["rate"]), *(_pct(s["failures"].get(r, 0) / n) for r in cols),
+                           str(s["invalid"])])
+    return table
+
+
+def cans_tables(results: dict[str, Any]) -> list[Table]:
+    """Sweeping by number of cans, one table per category: where the grasp matters."""
+    if "sweeping" not in results["tasks"]:
+        return []
+    tables = []
+    for cat, subsets in results["tasks"]["sweeping"]["categories"].items():
+        table = Table(f"sweeping, {cat}: task success % [95 % interval] (valid trials)", ["method", *subsets])
+        for m in results["methods"]:
+            table.rows.append([m, *(_rate_cell(subsets[sub]["methods"][m]) for sub in subsets)])
+        tables.append(table)
+    tables[-1].note = ("With one can almost any grasp that lifts the tool can succeed; with two the tool "
+                       "must span both, and the grasp decides whether it can.")
+    return tables
+
+
+def timing_table(results: dict[str, Any]) -> Table:
+    """Mean seconds per stage of planning and of the trial, per task and method."""
+    stages = ["depth", "candidates", "grasp", "action", "search", "total", "execute", "search_trials"]
+    table = Table("time per episode (ms; search_trials: the Oracle's simulated trials per plan)",
+                  ["task", "method", *stages])
+    for task, tres in results["tasks"].items():
+        for m, t in tres["timing"].items():
+            table.rows.append([task, m, *("" if k not in t else f"{t[k]:.1f}" if k == "search_trials"
+                                          else f"{1000 * t[k]:.0f}" for k in stages)])
+    return table
+
+
+def pick_examples(records: Sequence[dict[str, Any]], task: str, method: str
+                  ) -> list[tuple[str, dict[str, Any]]]:
+    """A typical success (the first, in job order) and a typical failure (the first with the method's most
+    common failure reason) of a method, among valid trials with a plan."""
+    rs = [r for r in records if r["task"] == task and r["method"] == method and r["valid"] and r.get("grasp")]
+    out = []
+    success = next((r for r in rs if r["task_success"]), None)
+    if success is not None:
+        out.append(("success", success))
+    fails = [r for r in rs if not r["task_success"]]
+    if fails:
+        reason = Counter(r["failure"] for r in fails).most_common(1)[0][0]
+        out.append((f"failure: {reason}", next(r for r in fails if r["failure"] == reason)))
+    return out
+
+
+def _data_uri(path: Path) -> str:
+    mime = {".png": "image/png", ".gif": "image/gif"}[path.suffix.lower()]
+    return f"data:{mime};base64,{base64.b64encode(path.read_bytes()).decode()}"
+
+
+CSS = """
+body{font-family:-apple-system,Segoe UI,Helvetica,Arial,sans-serif;margin:24px auto;max-width:1300px;
+color:#222;line-height:1.4;padding:0 16px}
+h1{font-size:24px}h2{font-size:19px;border-bottom:1px solid #ddd;padding-bottom:4px;margin-top:34px}
+h3{font-size:15px;margin:18px 0 6px}
+table{border-collapse:collapse;font-size:12.5px;margin:4px 0}
+td,th{border:1px solid #ddd;padding:3px 8px;text-align:right;white-space:nowrap}
+td:first-child,th:first-child{text-align:left}th{background:#f4f4f4}
+td.best,td.pos{font-weight:bold;background:#eaf6ea}td.neg{font-style:italic;background:#fbeaea}
+table.wrap td,table.wrap th{white-space:normal;text-align:left}
+.row{display:flex;flex-wrap:wrap;gap:8px 36px;align-items:flex-start}.tbl{max-width:100%}
+.tbl .note{max-width:560px}
+.note{font-size:12px;color:#555;max-width:1100px}img{max-width:100%}
+.gifs{display:grid;grid-template-columns:repeat(auto-fill,minmax(300px,1fr));gap:10px}
+figure{margin:0;font-size:11.5px;color:#333}figure img{border:1px solid #ccc}
+code{background:#f4f4f4;padding:0 3px}
+"""
+
+
+def write_report(out: Path, results: dict[str, Any], records: Sequence[dict[str, Any]], *,
+                 models: dict[str, Path], config: EvalConfig, objects: dict[str, list[ObjectRecord]],
+                 run_dir: str | Path | None = None, animations: bool = True, executor: Any = None,
+                 log: Callable[[str], None] = print) -> tuple[Path, Path]:
+    """Write ``report.html`` and ``report.md`` into ``out`` (figures in ``out/figures``, animations in
+    ``out/gifs``, rendered on ``executor``'s workers when one is given); returns both paths."""
+    from tognet.evaluate import figures
+
+    fig_dir = out / "figures"
+    tasks = list(results["tasks"])
+    pictures: dict[str, Path | None] = {
+        "results": figures.results_chart(results, fig_dir / "results.png"),
+        "cans": figures.cans_chart(results, fig_dir / "sweeping_cans.png"),
+    }
+    loaded = {}
+    if models:
+        from tognet.collect.jobs import load_model
+
+        loaded = {name: load_model(str(path)) for name, path in models.items()}
+    examples = [o for recs in objects.values() for o in recs[:2]][:6]
+    pictures["qualitative"] = figures.qualitative_figure(examples, loaded, config,
+                                                         fig_dir / "qualitative.png", seed=config.seed)
+    run = Path(run_dir) if run_dir else next((r for t in tasks if (r := figures.find_run_dir(models.get(t)))),
+                                             None)
+    pictures["curves"] = figures.training_curves(run, tasks, fig_dir / "training_curves.png") if run else None
+    gifs, gif_note = _animations(out, results, records, objects, config, executor, log) if animations else \
+        ({t: [] for t in tasks}, "Animations not made (--no-animations).")
+    html_path, md_path = out / "report.html", out / "report.md"
+    html_path.write_text(_html(results, pictures, gifs, gif_note, run))
+    md_path.write_text(_markdown(results, pictures, gifs, gif_note, run, out))
+    return html_path, md_path
+
+
+def _animations(out: Path, results: dict[str, Any], records: Sequence[dict[str, Any]],
+                objects: dict[str, list[ObjectRecord]], config: EvalConfig, executor: Any,
+                log: Callable[[str], None]) -> tuple[dict[str, list[tuple[str, str, Path, str]]], str]:
+    """A typical success and failure of each method per task, animated (GIFs in ``out/gifs``)."""
+    from tognet.collect.workers import LocalExecutor
+    from tognet.evaluate.figures import GifJob, run_gif_job
+
+    by_id = {o.object_id: o for recs in objects.values() for o in recs}
+    jobs, meta = [], []
+    for task in results["tasks"]:
+        for m in results["methods"]:
+            for kind, r in pick_examples(records, task, m):
+                path = out / "gifs" / f"{task}_{m}_{kind.split(':')[0]}.gif".replace("+", "_")
+                jobs.append(GifJob(len(jobs), by_id[r["object_id"]], task, r["scene_seed"], tuple(r["grasp"]),
+                                   tuple(r["action"]), str(path), config))
+                meta.append((task, m, kind, r))
+    outputs: dict[int, Any] = {}
+    (executor or LocalExecutor(0)).run(jobs, lambda job, o: outputs.__setitem__(job.index, o), log,
+                                       fn=run_gif_job)
+    gifs: dict[str, list[tuple[str, str, Path, str]]] = {t: [] for t in results["tasks"]}
+    errors = []
+    for job, (task, m, kind, r) in zip(jobs, meta, strict=True):
+        o = outputs.get(job.index)
+        if o is None or o.error:
+            errors.append(o.error if o is not None else "not run")
+            continue
+        rerun = o.stats["failure"]
+        caption = f"{kind} — {r['object_id']}, scene {r['scene_seed']}" + \
+            ("" if rerun == r["failure"] else f" (the rendered rerun: {rerun})")
+        gifs[task].append((m, kind, Path(job.path), caption))
+    note = ""
+    if errors:
+        note = f"{len(errors)} of {len(jobs)} animations failed: {errors[0]}"
+        log(note)
+    return gifs, note
+
+
+def _tables(results: dict[str, Any]) -> list[tuple[str, list[Table]]]:
+    sections = []
+    for task in results["tasks"]:
+        sub = main_subset(task)
+        what = " (the paper's mix: one or two cans)" if task == "sweeping" else ""
+        tables = [success_table(results, task, sub, f"{task}{what}: task success % [95 % interval] (valid "
+                                                    "trials)")]
+        tables += [t for t in (paired_table(results, task, sub), oracle_table(results, task, sub)) if t]
+        tables.append(success_table(results, task, sub, f"{task}: grasp success % [95 % interval]",
+                                    grasp=True))
+        tables.append(failure_table(results, task, sub))
+        sections.append((task, tables))
+    return sections
+
+
+def _settings_lines(results: dict[str, Any], run: Path | None) -> list[str]:
+    s, r = results["settings"], results["run"]
+    eps = r.get("episodes_per_s_now")
+    lines = [
+        f"Tasks {', '.join(s['tasks'])}; {s['episodes']} scenes per task and category, every method on every "
+        f"scene (the same object pose, depth image and execution noise: paired comparisons).",
+        f"Categories: {', '.join(s['categories'])} (test split: objects never used in training).",
+        "Models: " + "; ".join(f"{k} {v['path']} (sha256 {v['sha256']})" for k, v in s["models"].items()),
+        f"Config hash {s['config_hash']}; this run: {r['episodes_run_now']} episodes in "
+        f"{r['seconds_now']:.0f} s" + (f" ({eps:.2f} episodes/s on {r['workers']} workers)" if eps else "")
+        + ".",
+        f"Training curves from {run}" if run else "No pipeline run folder given: no training curves.",
+    ]
+    if r.get("job_errors"):
+        lines.append(f"{len(r['job_errors'])} job(s) skipped: {r['job_errors'][:3]}")
+    return lines
+
+
+def _html(results: dict[str, Any], pictures: dict[str, Path | None],
+          gifs: dict[str, list[tuple[str, str, Path, str]]], gif_note: str, run: Path | None) -> str:
+    def img(key: str, alt: str) -> str:
+        p = pictures.get(key)
+        return f"<img src='{_data_uri(p)}' alt='{html.escape(alt)}'>" if p else ""
+
+    date = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
+    parts = [f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>TOG-Net evaluation</title>"
+             f"<style>{CSS}</style></head><body>",
+             f"<h1>TOG-Net evaluation in simulation</h1><p class='note'>{html.escape(date)}</p><ul>",
+             *(f"<li>{html.escape(line)}</li>" for line in _settings_lines(results, run)), "</ul>",
+             "<h2>Methods</h2>", Table("", ["method", "grasp and action"],
+                                       [[m, METHOD_NOTES.get(m, "")] for m in results["methods"]],
+                                       wrap=True).html(),
+             "<h2>Task success by category</h2>", img("results", "bar chart of task success"),
+             "<p class='note'>Bars: task success over valid trials; whiskers: 95 % Wilson intervals. "
+             "Hatched: the Oracle (upper bound).</p>"]
+    for task, tables in _tables(results):
+        parts.append(f"<h2>{html.escape(task)}</h2><div class='row'>")
+        parts += [t.html() for t in tables]
+        parts.append("</div>")
+    cans = cans_tables(results)
+    if cans:
+        parts += ["<h2>Sweeping by number of cans</h2>", img("cans", "sweeping by can count"),
+                  "<div class='row'>", *(t.html() for t in cans), "</div>"]
+    parts += ["<h2>Where each model grasps</h2>", img("qualitative", "grasps on depth images"),
+              "<p class='note'>The same depth image (the object alone on the table) per row: the "
+              "task-agnostic grasp (CEM on Q_G), and TOG-Net's sweeping and hammering grasps (CEM on each "
+              "task's Q_T), with the score each was chosen by. A white dot marks each finger.</p>"]
+    parts.append("<h2>Episodes (GIFs at real speed)</h2>")
+    if gif_note:
+        parts.append(f"<p class='note'>{html.escape(gif_note)}</p>")
+    for task, items in gifs.items():
+        if not items:
+            continue
+        parts.append(f"<h3>{html.escape(task)}</h3><div class='gifs'>")
+        parts += [f"<figure><img src='{_data_uri(p)}' alt='{html.escape(m)} {html.escape(kind)}'>"
+                  f"<figcaption><b>{html.escape(m)}</b> {html.escape(cap)}</figcaption></figure>"
+                  for m, kind, p, cap in items]
+        parts.append("</div>")
+    parts.append("<h2>Training: each self-supervision round</h2>")
+    parts.append(img("curves", "training curves") if pictures.get("curves") else
+                 "<p class='note'>No pipeline run folder: pass --run RUN_DIR (a `tognet pipeline` "
+                 "output).</p>")
+    parts += ["<h2>Time</h2>", timing_table(results).html(), "</body></html>"]
+    return "\n".join(parts)
+
+
+def _markdown(results: dict[str, Any], pictures: dict[str, Path | None],
+              gifs: dict[str, list[tuple[str, str, Path, str]]], gif_note: str, run: Path | None,
+              out: Path) -> str:
+    def img(key: str, alt: str) -> str:
+        p = pictures.get(key)
+        return f"![{alt}]({p.relative_to(out).as_posix()})\n" if p else ""
+
+    parts = ["# TOG-Net evaluation in simulation", "",
+             *(f"- {line}" for line in _settings_lines(results, run)),
+             "", Table("Methods", ["method", "grasp and action"],
+                       [[m, METHOD_NOTES.get(m, "")] for m in results["methods"]]).markdown(),
+             "## Task success by category", "", img("results", "task success by category")]
+    for task, tables in _tables(results):
+        parts += [f"## {task}", ""] + [t.markdown() for t in tables]
+    cans = cans_tables(results)
+    if cans:
+        parts += ["## Sweeping by number of cans", "", img("cans", "sweeping by can count")]
+        parts += [t.markdown() for t in cans]
+    parts += ["## Where each model grasps", "", img("qualitative", "grasps on depth images")]
+    parts += ["## Episodes (GIFs at real speed)", ""] + ([gif_note, ""] if gif_note else [])
+    for task, items in gifs.items():
+        parts += [f"### {task}", ""] + [f"- **{m}** {cap}: ![{m} {kind}]({p.relative_to(out).as_posix()})"
+                                         for m, kind, p, cap in items] + [""]
+    parts += ["## Training: each self-supervision round", "",
+              img("curves", "training curves") or "No pipeline run folder given.", "",
+              timing_table(results).markdown()]
+    return "\n".join(parts) + "\n"
