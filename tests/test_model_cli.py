@@ -54,6 +54,21 @@ def test_end_to_end_train_and_info(tmp_path):
                             "--config", str(cfg), "--epochs", "3", "--resume", "--no-progress"])
     assert r.exit_code == 0, r.output
     assert "resuming" in r.output and "done: 3 epochs" in r.output
+    # warm start from the checkpoint into a new run; a checkpoint of another task is refused
+    warm = str(tmp_path / "warm")
+    r = runner.invoke(app, ["train", "--data", str(data), "--task", "hammering", "--out", warm,
+                            "--config", str(cfg), "--epochs", "1", "--init-from", str(out / "best.pt"),
+                            "--no-progress"])
+    assert r.exit_code == 0, r.output
+    assert json.loads((tmp_path / "warm" / "data.json").read_text())["init_from"]["path"].endswith("best.pt")
+    sweep = tmp_path / "sweep"
+    assert runner.invoke(app, ["data", "synthetic", str(sweep), "--task", "sweeping", "--episodes", "40"]
+                         ).exit_code == 0
+    w2 = str(tmp_path / "w2")
+    r = runner.invoke(app, ["train", "--data", str(sweep), "--task", "sweeping", "--out", w2,
+                            "--config", str(cfg), "--epochs", "1", "--init-from", str(out / "best.pt"),
+                            "--no-progress"])
+    assert r.exit_code == 2 and "hammering" in r.output and "sweeping" in r.output
 
 
 def test_cli_errors_are_clear(tmp_path):

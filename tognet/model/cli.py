@@ -23,6 +23,8 @@ def train_cmd(
     seed: int | None = typer.Option(None, "--seed", help="Override the config's seed."),
     device: str | None = typer.Option(None, "--device", help="'auto', 'cpu' or 'cuda' (overrides config)."),
     resume: bool = typer.Option(False, "--resume", help="Continue the run in --out from its last.pt."),
+    init_from: Path | None = typer.Option(None, "--init-from",
+                                          help="Warm start: weights and normalisation from this checkpoint."),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show tqdm progress bars."),
 ) -> None:
     """Train a TOG-Net model for one task on episode data (validation split by object)."""
@@ -33,7 +35,8 @@ def train_cmd(
     changes = {k: v for k, v in (("epochs", epochs), ("seed", seed), ("device", device)) if v is not None}
     if changes:
         cfg = cfg.replace(**changes)
-    result = train(data, task, out, cfg, resume=resume, progress=progress, log=typer.echo)
+    result = train(data, task, out, cfg, resume=resume, progress=progress, log=typer.echo,
+                   init_from=init_from)
     best = result.best
     typer.echo(f"done: {result.epochs_run} epochs{' (stopped early)' if result.stopped_early else ''}; "
                f"best epoch {best.get('epoch')} with {best.get('monitor')} loss {best.get('loss'):.4f}; "
