@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any, TypeVar
 
 import typer
@@ -29,3 +30,27 @@ def user_errors(func: F) -> F:
             raise typer.Exit(code=2) from None
 
     return wrapper  # type: ignore[return-value]
+
+
+def _file_above(path: Path) -> Path | None:
+    return next((p for p in path.parents if p.exists() and not p.is_dir()), None)
+
+
+def out_folder(path: Path, option: str = "--out") -> Path:
+    """``path`` checked as a folder to write into: a file there (or above it) is a one-line user error."""
+    if path.exists() and not path.is_dir():
+        raise TognetError(f"{option} {path}: exists and is not a folder; pass a folder")
+    above = _file_above(path)
+    if above is not None:
+        raise TognetError(f"{option} {path}: {above} is a file, not a folder")
+    return path
+
+
+def out_file(path: Path, option: str = "--out") -> Path:
+    """``path`` checked as a file to write: a folder there, or a file above it, is a one-line user error."""
+    if path.is_dir():
+        raise TognetError(f"{option} {path}: is a folder; pass a file name (e.g. {path / 'metrics.json'})")
+    above = _file_above(path)
+    if above is not None:
+        raise TognetError(f"{option} {path}: {above} is a file, not a folder")
+    return path

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import typer
 
-from tognet.cliutil import user_errors
+from tognet.cliutil import out_folder, user_errors
 
 
 @user_errors
@@ -31,7 +31,7 @@ def demo(
     from tognet.objects import generate_set
     from tognet.objects.sheet import write_contact_sheet
 
-    out.mkdir(parents=True, exist_ok=True)
+    out_folder(out).mkdir(parents=True, exist_ok=True)
     sheets: list[Path] = []
     for kind in ("primitive", "complex", "realistic"):
         folder = out / "objects" / kind

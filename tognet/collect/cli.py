@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from tognet.cliutil import user_errors
+from tognet.cliutil import out_folder, user_errors
 
 WORKERS_HELP = "Local worker processes (default: the number of cores)."
 RAY_HELP = "Run the jobs on a local Ray instance (pip install 'tognet\\[ray]')."
@@ -50,6 +50,7 @@ def collect_cmd(
     for path in (grasp_model, task_model):
         if path is not None and not path.is_file():
             raise FileNotFoundError(f"checkpoint not found: {path}")
+    out_folder(out)
     records = [r for folder in objects for r in load_catalog(folder)]
     cfg = CollectConfig.load(config) if config else CollectConfig()
     executor = make_executor(workers, ray, ray_address)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from tognet.cliutil import user_errors
+from tognet.cliutil import out_file, out_folder, user_errors
 
 model_app = typer.Typer(help="Inspect and evaluate trained TOG-Net checkpoints.", no_args_is_help=True)
 data_app = typer.Typer(help="Inspect and make episode datasets.", no_args_is_help=True)
@@ -95,6 +95,8 @@ def eval_cmd(
     """Loss and per-head metrics (AUC, accuracy, ECE, action error) of a checkpoint on episode data."""
     from tognet.model.train import evaluate_checkpoint
 
+    if out is not None:
+        out_file(out)
     result = evaluate_checkpoint(checkpoint, data, progress=progress)
     text = json.dumps(result, indent=2)
     if out is not None:
@@ -176,6 +178,7 @@ def data_synth_cmd(
     """Write synthetic bar episodes with a known labelling rule (for smoke tests of training)."""
     from tognet.data.synthetic import write_synthetic_dataset
 
+    out_folder(out, "OUT")
     write_synthetic_dataset(out, task=task, n=episodes, shard_size=shard_size, seed=seed, n_objects=objects)
     typer.echo(f"wrote {episodes} synthetic episodes to {out}")
 
