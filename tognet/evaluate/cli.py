@@ -24,15 +24,15 @@ def evaluate_cmd(
                                  "runs on each."),
     out: Path = typer.Option(..., "--out", help="Folder for the results, report and test objects."),
     grasp_model: Path | None = typer.Option(None, "--grasp-model", help="Grasp-only (Q_G) checkpoint "
-                                            "[default: the shipped tognet/models/grasping.pt]."),
+                                            "(default: the shipped tognet/models/grasping.pt)."),
     sweeping_model: Path | None = typer.Option(None, "--sweeping-model", help="Sweeping TOG-Net checkpoint "
-                                               "[default: the shipped one]."),
+                                               "(default: the shipped one)."),
     hammering_model: Path | None = typer.Option(None, "--hammering-model", help="Hammering TOG-Net "
-                                                "checkpoint [default: the shipped one]."),
+                                                "checkpoint (default: the shipped one)."),
     test_objects: int | None = typer.Option(None, "--test-objects", min=1, help="Test objects per category "
                                             "at most (default: a new one per job)."),
     scenes_per_job: int | None = typer.Option(None, "--scenes-per-job", min=1, help="Scenes per job (one "
-                                              "object) [default: the config's, 2]."),
+                                              "object) (default: the config's, 2)."),
     config: Path | None = typer.Option(None, "--config", help="EvalConfig JSON file (else defaults)."),
     run: Path | None = typer.Option(None, "--run", help="A `tognet pipeline` run folder whose per-round "
                                     "training curves the report shows (default: the task model's run)."),

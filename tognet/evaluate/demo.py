@@ -26,11 +26,24 @@ def run_demo(out: str | Path = "runs/demo/evaluation", *, episodes: int = DEMO_E
              run_dir: str | Path | None = None, log: Callable[[str], None] = print) -> dict[str, Any]:
     """Evaluate all methods on both tasks and the three test categories (``episodes`` scenes each, on
     ``test_objects`` objects per category) with the shipped checkpoints unless others are given; writes
-    ``out/report.html``. Run again, it resumes (and only re-renders the report when everything is there)."""
-    from tognet.evaluate.harness import run_evaluation
+    ``out/report.html``. Run again, it resumes (only re-rendering the report when everything is there); an
+    earlier demo evaluation in ``out`` with other settings (e.g. new models) is replaced."""
+    import shutil
 
-    return run_evaluation(out, ["sweeping", "hammering"], "all", categories=["pg-primitive", "pg-complex",
-                                                                             "realistic"],
-                          episodes=episodes, test_object_count=test_objects, grasp_model=grasp_model,
-                          task_models=task_models, config=demo_config(), workers=workers, resume=True,
-                          progress=progress, run_dir=run_dir, log=log)
+    from tognet.evaluate.harness import SETTINGS, SettingsChanged, run_evaluation
+
+    def run() -> dict[str, Any]:
+        return run_evaluation(out, ["sweeping", "hammering"], "all",
+                              categories=["pg-primitive", "pg-complex", "realistic"], episodes=episodes,
+                              test_object_count=test_objects, grasp_model=grasp_model,
+                              task_models=task_models, config=demo_config(), workers=workers, resume=True,
+                              progress=progress, run_dir=run_dir, log=log)
+
+    try:
+        return run()
+    except SettingsChanged as exc:
+        if not (Path(out) / SETTINGS).is_file():
+            raise
+        log(f"{exc}: starting the demo evaluation afresh")
+        shutil.rmtree(out)
+        return run()

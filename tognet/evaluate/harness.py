@@ -28,7 +28,7 @@ import numpy as np
 
 from tognet.collect.jobs import JobOutput
 from tognet.collect.rounds import file_digest
-from tognet.collect.workers import Executor, make_executor
+from tognet.collect.workers import Executor, default_workers, make_executor
 from tognet.errors import TognetError
 from tognet.evaluate.config import CATEGORIES, EvalConfig
 from tognet.evaluate.jobs import EvalJob, plan_eval_jobs, run_eval_job
@@ -46,6 +46,10 @@ SUBSETS = {"sweeping": {"mix": None, "one-can": 1, "two-can": 2}, "hammering": {
 
 class EvalError(TognetError):
     """An evaluation cannot start or continue (an existing folder, missing models, bad objects...)."""
+
+
+class SettingsChanged(EvalError):
+    """``--resume`` on a folder whose evaluation was started with other settings (models, config...)."""
 
 
 def resolve_models(tasks: Sequence[str], methods: Sequence[str], grasp_model: str | Path | None = None,
@@ -127,7 +131,7 @@ def _check_out(out: Path, settings: dict[str, Any], resume: bool) -> None:
         new = json.loads(json.dumps(settings))
         if old != new:
             diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
-            raise EvalError(f"{saved}: the evaluation was started with other settings (differs in "
+            raise SettingsChanged(f"{saved}: the evaluation was started with other settings (differs in "
                             f"{', '.join(diff)}); resume with the same ones or use another --out")
     elif resume and out.is_dir() and any(out.iterdir()):
         raise EvalError(f"{out}: no {SETTINGS}, so not an evaluation to resume")
@@ -200,8 +204,8 @@ def run_evaluation(
         n_objects = -(-episodes // config.scenes_per_job)  # one object per job ...
         if test_object_count is not None:
             n_objects = min(n_objects, test_object_count)  # ... or fewer, visited in turn
-        objects = {c: test_objects(c, n_objects, out, max(1, executor.workers), progress, log)
-                   for c in categories}
+        local = min(executor.workers, default_workers())  # objects are generated on this machine
+        objects = {c: test_objects(c, n_objects, out, max(1, local), progress, log) for c in categories}
         objects.update(dict(users))
         stores: dict[tuple[str, str], EvalStore] = {}
         jobs: list[EvalJob] = []

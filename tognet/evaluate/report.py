@@ -282,6 +282,7 @@ def _animations(out: Path, results: dict[str, Any], records: Sequence[dict[str, 
                 jobs.append(GifJob(len(jobs), by_id[r["object_id"]], task, r["scene_seed"], tuple(r["grasp"]),
                                    tuple(r["action"]), str(path), config))
                 meta.append((task, m, kind, r))
+    log(f"animating {len(jobs)} typical episodes for the report")
     outputs: dict[int, Any] = {}
     (executor or LocalExecutor(0)).run(jobs, lambda job, o: outputs.__setitem__(job.index, o), log,
                                        fn=run_gif_job)
