@@ -93,3 +93,20 @@ def test_presets_load_and_cli_errors_are_one_line(tmp_path):
     for cmd in ("collect", "pipeline"):
         res = runner.invoke(app, [cmd, "--help"])
         assert res.exit_code == 0 and "--workers" in res.output and "--ray" in res.output
+
+
+def test_export_models_copies_final_models_with_their_summaries(toy_run, tmp_path):
+    from tognet.collect.pipeline import export_models
+    from tognet.model.predict import TOGNetPredictor
+
+    out, _ = toy_run
+    written = export_models(out, tmp_path / "models", command="tognet pipeline --preset toy")
+    assert sorted(p.name for p in written) == ["grasping.pt", "sweeping.pt"]
+    info = json.loads((tmp_path / "models" / "sweeping.json").read_text())
+    assert [r["round"] for r in info["rounds"]] == [1, 2] and info["command"].endswith("toy")
+    assert info["rounds"][1]["history"][0]["val"]["count"] > 0
+    assert (tmp_path / "models" / "sweeping.pt").read_bytes() == (
+        out / "sweeping" / "round2" / "model" / "best.pt").read_bytes()
+    assert TOGNetPredictor.load(tmp_path / "models" / "sweeping.pt").task == "sweeping"
+    with pytest.raises(PipelineError, match="not a finished pipeline run"):
+        export_models(tmp_path, tmp_path / "x")

@@ -86,7 +86,22 @@ def pipeline_cmd(
     typer.echo(f"summary: {out / 'summary.md'}")
 
 
+@user_errors
+def export_cmd(
+    run: Path = typer.Argument(..., help="A finished `tognet pipeline` run folder."),
+    out: Path = typer.Option(..., "--out", help="Folder for grasping.pt, <task>.pt and their .json."),
+    command: str | None = typer.Option(None, "--command", help="The command that made the run (recorded)."),
+) -> None:
+    """Copy a finished run's final models (the grasp-only model and each task's last round) with their
+    summaries: how they were trained, per-round collection figures, held-out metrics, training curves."""
+    from tognet.collect.pipeline import export_models
+
+    for path in export_models(run, out, command):
+        typer.echo(f"wrote {path} and {path.with_suffix('.json').name}")
+
+
 def register(app: typer.Typer) -> None:
-    """Add ``collect`` and ``pipeline`` to the ``tognet`` command."""
+    """Add ``collect``, ``pipeline`` and ``export-models`` to the ``tognet`` command."""
     app.command("collect")(collect_cmd)
     app.command("pipeline")(pipeline_cmd)
+    app.command("export-models")(export_cmd)

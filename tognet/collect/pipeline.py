@@ -15,7 +15,9 @@ first missing job, training from its ``last.pt``).
 
 from __future__ import annotations
 
+import hashlib
 import json
+import shutil
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -207,3 +209,49 @@ def _write_summary(out: Path, summary: dict[str, Any]) -> None:
     for task, rows in summary["tasks"].items():
         parts += [format_pipeline_table(task, rows), ""]
     (out / "summary.md").write_text("\n".join(parts))
+
+
+def export_models(run: str | Path, out: str | Path, command: str | None = None) -> list[Path]:
+    """Copy a finished run's final models to ``out`` as ``grasping.pt`` and ``<task>.pt`` (the last
+    round's best), each with ``<name>.json``: the preset, every round's collection summary, the trained
+    model's held-out metrics and its per-epoch training history (for curves), and the command."""
+    run, out = Path(run), Path(out)
+    summary_path = run / "summary.json"
+    if not summary_path.is_file():
+        raise PipelineError(f"{run}: no summary.json, so not a finished pipeline run")
+    summary = json.loads(summary_path.read_text())
+    preset = json.loads((run / "preset.json").read_text())
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+
+    def history(model_dir: Path) -> list[dict[str, Any]]:
+        metrics = json.loads((model_dir / "metrics.json").read_text())
+        keep = ("epoch", "train", "val", "seconds")
+        rows = []
+        for h in metrics.get("history", []):
+            row = {k: h.get(k) for k in keep}
+            row["train"] = {k: v for k, v in (row["train"] or {}).items() if k != "metrics"}
+            rows.append(row)
+        return rows
+
+    entries: dict[str, tuple[Path, dict[str, Any]]] = {}
+    g = summary.get("grasping")
+    if g:
+        mdir = run / GRASP_ONLY / "model"
+        row0 = {"round": 0, "collection": g["round"], "model": g["model"], "history": history(mdir)}
+        entries[GRASP_ONLY] = (mdir / "best.pt", {"rounds": [row0]})
+    for task, rows in summary.get("tasks", {}).items():
+        final = run / task / f"round{rows[-1]['round']}" / "model" / "best.pt"
+        rounds = [{**row, "history": history(run / task / f"round{row['round']}" / "model")} for row in rows]
+        entries[task] = (final, {"rounds": rounds})
+    for name, (src, info) in entries.items():
+        if not src.is_file():
+            raise PipelineError(f"{src}: missing; the run did not finish {name}")
+        dst = out / f"{name}.pt"
+        shutil.copyfile(src, dst)
+        doc = {"name": name, "preset": preset, "command": command, "source_run": str(run),
+               "checkpoint_sha256": hashlib.sha256(dst.read_bytes()).hexdigest(), **info}
+        (out / f"{name}.json").write_text(json.dumps(doc, indent=2, default=str) + "\n")
+        written.append(dst)
+    return written
+
