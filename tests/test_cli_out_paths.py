@@ -20,7 +20,8 @@ EVAL = ["model", "eval", "{ckpt}", "--data", "{data}", "--out"]
 @pytest.mark.parametrize("args, message", [
     ([*EVAL, "{tmp}/a-folder"], "is a folder; pass a file name"),
     ([*EVAL, "{tmp}/a-file/m.json"], "a-file is a file"),
-    (["demo", "--out", "{tmp}/a-file", "--count", "1", "--no-tasks"], "exists and is not a folder"),
+    (["demo", "--out", "{tmp}/a-file", "--count", "1", "--no-tasks", "--no-evaluate"],
+     "exists and is not a folder"),
     (["data", "synthetic", "{tmp}/a-file", "--episodes", "4"], "exists and is not a folder"),
     (["data", "synthetic", "{tmp}/a-file/data", "--episodes", "4"], "a-file is a file, not a folder"),
     (["collect", "--task", "sweeping", "--objects", "{tmp}", "--out", "{tmp}/a-file"], "is not a folder"),

@@ -12,7 +12,7 @@ from tognet.cli import app
 
 def test_demo_writes_sets_and_sheets_and_prints_their_paths(tmp_path):
     out = tmp_path / "demo"
-    args = ["demo", "--out", str(out), "--count", "1", "--realistic", "2", "--no-tasks"]
+    args = ["demo", "--out", str(out), "--count", "1", "--realistic", "2", "--no-tasks", "--no-evaluate"]
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 0, result.output
     for kind, n in (("primitive", 1), ("complex", 1), ("realistic", 2)):
@@ -23,7 +23,7 @@ def test_demo_writes_sets_and_sheets_and_prints_their_paths(tmp_path):
         assert len(catalog["objects"]) == n
     assert "hammer, mallet" in result.output
     # A second run starts from scratch: a set left with other objects does not leak into the new one.
-    args = ["demo", "--out", str(out), "--count", "1", "--realistic", "1", "--no-tasks"]
+    args = ["demo", "--out", str(out), "--count", "1", "--realistic", "1", "--no-tasks", "--no-evaluate"]
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 0, result.output
     assert len(json.loads((out / "objects" / "realistic" / "catalog.json").read_text())["objects"]) == 1

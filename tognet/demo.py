@@ -2,7 +2,8 @@
 
 It generates a few objects of each kind and writes their contact sheets, then shows on the simulated
 tasks that the grasp matters (scripted checks), draws grasp candidates on a simulated depth image and
-animates one hammering episode. It grows with the pipeline (collection, training, evaluation).
+animates one hammering episode; then evaluates the shipped models against the paper's baselines on unseen
+objects at demo scale and writes the report.
 """
 
 from __future__ import annotations
@@ -26,8 +27,13 @@ def demo(
     tasks: bool = typer.Option(True, help="Also run the task part: scripted checks, candidates, animation."),
     seeds: int = typer.Option(5, min=1, help="Scenes per scripted check in the task part."),
     gif: bool = typer.Option(True, help="Animate one hammering episode (needs MuJoCo's renderer: EGL)."),
+    evaluate: bool = typer.Option(
+        True, help="Evaluate every method with the shipped models on both tasks (a few minutes) and write "
+        "the report (OUT/evaluation/report.html)."
+    ),
 ) -> None:
-    """Objects of each kind with contact sheets, then the tasks: does the grasp matter, candidates, a GIF."""
+    """Objects of each kind with contact sheets, the tasks (does the grasp matter, candidates, a GIF), then
+    the shipped models against the paper's baselines on unseen objects, with a report."""
     from tognet.objects import generate_set
     from tognet.objects.sheet import write_contact_sheet
 
@@ -66,6 +72,11 @@ def demo(
         from tognet.demo_tasks import run_task_demo
 
         run_task_demo(out / "tasks", seeds=seeds, gif=gif)
+    if evaluate:
+        from tognet.evaluate import run_demo
+
+        run_demo(out / "evaluation", log=typer.echo)
+        typer.echo(f"report: {out / 'evaluation' / 'report.html'}")
 
 
 def register(app: typer.Typer) -> None:
