@@ -130,6 +130,19 @@ def trial_records(view: SceneView, grasps: NDArray[np.float64], actions: NDArray
     }
 
 
+def reset_scene(sim: Any, scene_seed: int, stats: Counter[str]) -> Any:
+    """``sim.reset(scene_seed)``, or None for a scene the simulator cannot set up (the object fell off the
+    table, an unstable drop), counted in ``stats`` (``bad_scenes`` and the reason) so the job goes on."""
+    from tognet.sim import SimulationError
+
+    try:
+        return sim.reset(scene_seed)
+    except SimulationError as exc:
+        stats["bad_scenes"] += 1
+        stats[f"bad_scene: {exc}"[:200]] += 1
+        return None
+
+
 def run_job(job: Job) -> JobOutput:
     """Run one job (in a worker): every scene and trial, labels from the simulator. Never raises for a bad
     object or scene: a job whose object cannot be simulated returns no records and the error."""
@@ -144,7 +157,7 @@ def _run_job(job: Job) -> JobOutput:
     from tognet.geometry import Grasp
     from tognet.grasping.antipodal import sample_antipodal
     from tognet.grasping.depth import prepare_depth
-    from tognet.sim import SimulationError, Simulator
+    from tognet.sim import Simulator
 
     cfg = job.config
     t0 = time.perf_counter()
@@ -165,11 +178,8 @@ def _run_job(job: Job) -> JobOutput:
     trials = cfg.trials_per_scene
     for s in range(cfg.scenes_per_job):
         scene_seed = job.scene_seed(s)
-        try:
-            obs = sim.reset(scene_seed)
-        except SimulationError as exc:
-            stats["bad_scenes"] += 1
-            stats[f"bad_scene: {exc}"[:200]] += 1
+        obs = reset_scene(sim, scene_seed, stats)
+        if obs is None:
             continue
         rng = np.random.default_rng(job.seed(s, 2))
         scene = prepare_depth(obs.depth, obs.camera)

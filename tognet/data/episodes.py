@@ -572,6 +572,29 @@ def dataset_configs(
     return out
 
 
+def dataset_shards(dirs: str | Path | Iterable[str | Path], task: str | None = None) -> list[Path]:
+    """The shard files of dataset folders, every folder checked first (it exists, holds shards, and holds
+    ``task`` when given; all folders hold one task): DatasetError names the first that does not."""
+    dirs = expand_dataset_dirs(dirs)
+    if not dirs:
+        raise DatasetError("no dataset folders given")
+    tasks: dict[str, Path] = {}
+    paths: list[Path] = []
+    for folder in dirs:
+        folder_task = dataset_task(folder) if folder.is_dir() else None
+        if folder_task is not None:
+            tasks.setdefault(folder_task, folder)
+            if task is not None and folder_task != task:
+                raise DatasetError(f"{folder}: holds task {folder_task!r}, expected {task!r}")
+        found = shard_paths(folder)
+        if not found:
+            raise DatasetError(f"{folder}: no shards found")
+        paths.extend(found)
+    if len(tasks) > 1:
+        raise DatasetError(f"dataset folders hold different tasks: {sorted(tasks)}")
+    return paths
+
+
 def read_dataset(
     dirs: str | Path | Iterable[str | Path],
     *,
@@ -586,23 +609,7 @@ def read_dataset(
     shard is skipped with a warning instead of raising :class:`DatasetError`. ``progress``: a tqdm bar
     over the shards.
     """
-    dirs = expand_dataset_dirs(dirs)
-    if not dirs:
-        raise DatasetError("no dataset folders given")
-    tasks: dict[str, Path] = {}
-    paths: list[Path] = []
-    for folder in dirs:  # check every folder (exists, task, shards) before reading anything
-        folder_task = dataset_task(folder) if folder.is_dir() else None
-        if folder_task is not None:
-            tasks.setdefault(folder_task, folder)
-            if task is not None and folder_task != task:
-                raise DatasetError(f"{folder}: holds task {folder_task!r}, expected {task!r}")
-        found = shard_paths(folder)
-        if not found:
-            raise DatasetError(f"{folder}: no shards found")
-        paths.extend(found)
-    if len(tasks) > 1:
-        raise DatasetError(f"dataset folders hold different tasks: {sorted(tasks)}")
+    paths = dataset_shards(dirs, task)
     parts: list[EpisodeArrays] = []
     bar = None
     if progress:

@@ -40,10 +40,9 @@ import torch
 
 from tognet.data.episodes import (
     DatasetError,
-    dataset_task,
+    dataset_shards,
     expand_dataset_dirs,
     read_columns,
-    shard_paths,
     split_indices_by_object,
 )
 
@@ -179,23 +178,7 @@ class EpisodeStream:
 
     # -- listing ----------------------------------------------------------------------------------------
     def _list_paths(self) -> list[Path]:
-        if not self.dirs:
-            raise DatasetError("no dataset folders given")
-        tasks: dict[str, Path] = {}
-        paths: list[Path] = []
-        for folder in self.dirs:  # check every folder (exists, task, shards) before reading any shard
-            folder_task = dataset_task(folder) if folder.is_dir() else None
-            if folder_task is not None:
-                tasks.setdefault(folder_task, folder)
-                if self.task is not None and folder_task != self.task:
-                    raise DatasetError(f"{folder}: holds task {folder_task!r}, expected {self.task!r}")
-            found = shard_paths(folder)
-            if not found:
-                raise DatasetError(f"{folder}: no shards found")
-            paths.extend(found)
-        if len(tasks) > 1:
-            raise DatasetError(f"dataset folders hold different tasks: {sorted(tasks)}")
-        return paths
+        return dataset_shards(self.dirs, self.task)
 
     def _scan(self, paths: list[Path], progress: bool) -> tuple[list[ShardInfo], frozenset[str], int]:
         from tqdm import tqdm

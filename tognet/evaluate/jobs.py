@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from tognet.collect.jobs import JobOutput, load_model
+from tognet.collect.jobs import JobOutput, load_model, reset_scene
 from tognet.evaluate.config import EvalConfig
 from tognet.objects.record import ObjectRecord
 
@@ -101,7 +101,7 @@ def run_eval_job(job: EvalJob) -> JobOutput:
 
 def _run_eval_job(job: EvalJob) -> JobOutput:
     from tognet.planning import PlanningError, make_planner
-    from tognet.sim import SimulationError, Simulator
+    from tognet.sim import Simulator
 
     t_start = time.perf_counter()
     sim = Simulator(job.config.sim, job.task, job.obj)
@@ -113,11 +113,8 @@ def _run_eval_job(job: EvalJob) -> JobOutput:
     stats: Counter[str] = Counter()
     for s in range(job.scenes):
         scene_seed = job.scene_seed(s)
-        try:
-            obs = sim.reset(scene_seed)
-        except SimulationError as exc:
-            stats["bad_scenes"] += 1
-            stats[f"bad_scene: {exc}"[:200]] += 1
+        obs = reset_scene(sim, scene_seed, stats)
+        if obs is None:
             continue
         depth_sha = hashlib.sha256(np.ascontiguousarray(obs.depth).tobytes()).hexdigest()[:16]
         cans = obs.info.get("layout", {}).get("cans")
