@@ -225,3 +225,27 @@ def test_workers_end_when_their_coordinator_is_killed(tmp_path):
         time.sleep(0.2)
     alive = Path(f"/proc/{worker}").exists() and "State:\tZ" not in Path(f"/proc/{worker}/status").read_text()
     assert not alive, "the worker outlived its coordinator"
+
+
+def test_two_nms_rankings_on_one_scene_keep_their_own_modes():
+    """The antipodal ranking and a Q_G ranking share a SceneView's cache without reading each other's."""
+    from types import SimpleNamespace
+
+    from tognet.collect.config import PolicyConfig
+    from tognet.collect.policies import NMSGrasps, SceneView
+    from tognet.grasping import AntipodalConfig, CropConfig, prepare_depth, sample_antipodal
+    from tognet.grasping.synthetic import Box, render_depth, tilted_camera
+
+    camera = tilted_camera(0.9)
+    depth = render_depth(camera, [Box.on_table(0.0, 0.0, (0.3, 0.03, 0.03), 0.0)])
+    scene = prepare_depth(depth, camera)
+    cands = sample_antipodal(scene, None, AntipodalConfig(), np.random.default_rng(0))
+    view = SceneView(scene, cands, None, CropConfig())
+
+    class Reversed:  # a Q_G that ranks the candidates the other way round from the antipodal score
+        def predict(self, crops, z):
+            return SimpleNamespace(q_g=1.0 - view.candidates.quality[: len(z)])
+
+    by_quality, _ = NMSGrasps(PolicyConfig()).modes(view)
+    by_model, _ = NMSGrasps(PolicyConfig(), Reversed()).modes(view)
+    assert not np.array_equal(by_quality[0], by_model[0])

@@ -82,7 +82,8 @@ class NMSGrasps:
 
     def modes(self, view: SceneView) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The scene's NMS modes (grasps, ranking scores), best first; cached on the view."""
-        if "nms_modes" not in view.cache:
+        key = f"nms_modes_{id(self.grasp_model)}"  # one cache entry per ranking
+        if key not in view.cache:
             cands = view.candidates
             if self.grasp_model is not None:
                 crops, z = view.crops(cands.grasps)
@@ -90,8 +91,8 @@ class NMSGrasps:
             else:
                 scores = np.asarray(cands.quality, dtype=np.float64)
             keep = nms(cands.grasps, scores, self.config.nms)[: self.config.max_modes]
-            view.cache["nms_modes"] = (cands.grasps[keep], scores[keep])
-        return view.cache["nms_modes"]
+            view.cache[key] = (cands.grasps[keep], scores[keep])
+        return view.cache[key]
 
     def __call__(self, view: SceneView, n: int, rng: np.random.Generator) -> GraspPick:
         grasps, scores = self.modes(view)
