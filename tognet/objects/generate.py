@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib
+import multiprocessing
 from collections.abc import Iterable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
@@ -239,7 +240,10 @@ def generate_set(
             )
             _collect(results, records, existing, bar)
         else:
-            with ProcessPoolExecutor(max_workers=workers) as pool:
+            # spawned, not forked: a parent that has rendered (EGL) or run torch threads hangs forked children
+            # (seen: `tognet demo` after its GIF stalled generating the evaluation's test objects)
+            spawn = multiprocessing.get_context("spawn")
+            with ProcessPoolExecutor(max_workers=workers, mp_context=spawn) as pool:
                 jobs = pool.map(_generate_job, [(kind, split, i, str(out), config) for i in indices])
                 _collect(jobs, records, existing, bar)
     finally:
