@@ -70,7 +70,7 @@ def collect_round(
             f"running the other {len(todo)}")
     own = executor is None
     executor = executor or LocalExecutor()
-    tally = _Tally(store)
+    tally = _Tally()
     bar = None
     if progress:
         from tqdm import tqdm
@@ -116,7 +116,7 @@ def collect_round(
 class _Tally:
     """Running counts for the progress bar (this run's jobs only)."""
 
-    def __init__(self, store: RoundStore) -> None:
+    def __init__(self) -> None:
         self.episodes = 0
         self.valid = 0
         self.s_g = 0

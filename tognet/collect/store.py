@@ -33,6 +33,7 @@ from tognet.data.episodes import (
     write_shard,
 )
 from tognet.data.episodes import _read_manifest as read_manifest
+from tognet.data.episodes import _sha256 as sha256
 from tognet.data.episodes import _summarise as summarise
 
 SHARD_NAME = "shard-{:06d}.npz"
@@ -95,10 +96,8 @@ class RoundStore:
                 path.rename(aside)
                 warnings.warn(f"{exc}; moved aside to {aside.name}, its job runs again", stacklevel=3)
                 continue
-            from tognet.data.episodes import _sha256
-
             self._entries[job] = {
-                "file": path.name, "count": int(cols["z"].shape[0]), "sha256": _sha256(path), "meta": meta,
+                "file": path.name, "count": int(cols["z"].shape[0]), "sha256": sha256(path), "meta": meta,
                 **{k: v for k, v in summarise(cols["valid"], cols["grasp_success"], cols["task_success"],
                                               cols["failure"]).items() if k != "episodes"},
             }
