@@ -249,3 +249,32 @@ def test_two_nms_rankings_on_one_scene_keep_their_own_modes():
     by_quality, _ = NMSGrasps(PolicyConfig()).modes(view)
     by_model, _ = NMSGrasps(PolicyConfig(), Reversed()).modes(view)
     assert not np.array_equal(by_quality[0], by_model[0])
+
+
+def test_expert_exploration_uses_the_oracles_actions_and_is_saved_with_the_data(objects, tmp_path):
+    from tognet.data.episodes import ACTION_SOURCES
+    from tognet.sim.oracle import task_actions
+
+    expert = RoundConfig(episodes=6, expert_actions=1.0)
+    cfg = expert.collect_config(SMALL)
+    assert cfg.policy.expert_actions == 1.0 and RoundConfig(episodes=6).collect_config(SMALL) == SMALL
+    job = plan_jobs("sweeping", 1, objects, 3, "nms_uniform", cfg)[0]
+    out = run_job(job)
+    c = out.columns
+    assert out.error is None and len(c["z"]) == 3
+    assert np.all(c["action_source"] == ACTION_SOURCES["expert"])
+    sim = Simulator(SimConfig(), "sweeping", job.obj)
+    sim.reset(int(c["scene_seed"][0]))
+    for k in range(3):  # each action is one of the oracle's candidates for its grasp, on the settled scene
+        cands = np.array(task_actions(sim, Grasp.from_array(c["grasp"][k].astype(np.float64))))
+        assert np.min(np.abs(cands - c["action"][k]).max(axis=1)) < 1e-6
+    # without it, the round explores uniformly as before
+    plain = run_job(plan_jobs("sweeping", 1, objects, 3, "nms_uniform", SMALL)[0]).columns
+    assert np.all(plain["action_source"] == ACTION_SOURCES["uniform"])
+    # the round's override is what the collection saves beside its data
+    collect_round("sweeping", 1, objects[:1], expert, SMALL, tmp_path / "r1", progress=False,
+                  log=lambda m: None)
+    saved = json.loads(next((tmp_path / "r1" / "configs").glob("collect*.json")).read_text())
+    assert saved["policy"]["expert_actions"] == 1.0
+    with pytest.raises(ValueError, match="no hand-computed actions"):
+        task_actions(Simulator(SimConfig(), "grasping", objects[0]), Grasp(0.0, 0.0, 0.05, 0.0))

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from importlib import resources
 from pathlib import Path
 from typing import Literal
@@ -44,6 +44,14 @@ class PolicyConfig(Config):
         "policy's action is the network's mean plus this noise, clipped to the task's action box. Smaller "
         "than the box (about a third of the random baseline's +-5 cm, +-pi/20 spread) so that greedy trials "
         "stay near what worked, large enough to keep exploring.",
+    )
+    expert_actions: float = doc(
+        0.0,
+        "Probability that an exploring action (round 1's uniform ones, the epsilon_2 ones later) is "
+        "instead one of the simulator's hand-computed actions for that grasp (tognet.sim.oracle, one of its "
+        "candidates at random): privileged exploration at training time only, not the paper's (0 = the "
+        "paper). For tasks whose successful actions are a small target in the action box, so that uniform "
+        "exploration finds too few successes to learn the policy from; labels still come from the trials.",
     )
     max_modes: int = doc(30, "NMS modes kept per scene at most (the paper's 10-30 distinct modes).")
     nms: NMSConfig = doc(factory=NMSConfig, text="Suppression radius of the exploration grasps.")
@@ -91,6 +99,15 @@ class RoundConfig(Config):
         "noise, with epsilon exploration (rounds 2+).",
     )
     epochs: int = doc(10, "Training epochs after the round (on all data so far, warm-started).")
+    expert_actions: float | None = doc(
+        None, "Replaces ``collect.policy.expert_actions`` in this round (None: keep it)."
+    )
+
+    def collect_config(self, config: CollectConfig) -> CollectConfig:
+        """``config`` with this round's overrides applied (what the round runs with and saves)."""
+        if self.expert_actions is None:
+            return config
+        return replace(config, policy=replace(config.policy, expert_actions=self.expert_actions))
 
 
 @dataclass(frozen=True)

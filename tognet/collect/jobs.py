@@ -26,7 +26,9 @@ from numpy.typing import NDArray
 
 from tognet.collect.config import CollectConfig, RoundPolicy
 from tognet.collect.policies import (
+    ActionPick,
     CEMGrasp,
+    ExpertActions,
     NMSGrasps,
     NoActions,
     PolicyActions,
@@ -173,6 +175,7 @@ def _run_job(job: Job) -> JobOutput:
     cem_grasp = CEMGrasp(cfg.policy, task_model) if task_model is not None else None
     explore_actions = NoActions() if job.task == GRASP_ONLY else UniformActions()
     policy_actions = PolicyActions(task_model, cfg.policy.action_noise) if task_model is not None else None
+    expert_actions = ExpertActions(sim) if job.task != GRASP_ONLY else None
     parts: list[dict[str, NDArray[Any]]] = []
     stats: Counter[str] = Counter()
     trials = cfg.trials_per_scene
@@ -195,6 +198,13 @@ def _run_job(job: Job) -> JobOutput:
             pick = epsilon_mix(cem_grasp(view, trials, rng), pick, explore)
         grasps = pick.grasps.astype(np.float32).astype(np.float64)  # as stored, so records replay exactly
         acts = explore_actions(view, grasps, rng)
+        if expert_actions is not None and cfg.policy.expert_actions > 0:
+            expert = rng.random(trials) < cfg.policy.expert_actions
+            if expert.any():  # computed only for the trials that use them
+                chosen = expert_actions(view, grasps[expert], rng)
+                actions, source = acts.actions.copy(), acts.source.copy()
+                actions[expert], source[expert] = chosen.actions, chosen.source
+                acts = ActionPick(actions, source)
         if job.policy == "epsilon_greedy":
             assert policy_actions is not None
             random_action = rng.random(trials) < cfg.policy.epsilon_action

@@ -176,6 +176,27 @@ class PolicyActions:
         return ActionPick(acts, np.full(len(grasps), ACTION_SOURCES["policy"], np.int8))
 
 
+class ExpertActions:
+    """The simulator's hand-computed actions (:func:`tognet.sim.oracle.task_actions`) for each grasp, one
+    of its candidates at random: privileged exploration for collection (``PolicyConfig.expert_actions``).
+    ``sim`` must hold the view's scene (settled, as after ``sim.reset``)."""
+
+    def __init__(self, sim: Any) -> None:
+        self.sim = sim
+
+    def __call__(self, view: SceneView, grasps: NDArray[np.float64], rng: np.random.Generator) -> ActionPick:
+        from tognet.geometry import Grasp
+        from tognet.sim.oracle import task_actions
+
+        task = _need_task(view)
+        acts = np.zeros((len(grasps), 4))
+        for i, g in enumerate(grasps):
+            candidates = task_actions(self.sim, Grasp.from_array(g))
+            pick = candidates[int(rng.integers(len(candidates)))]
+            acts[i] = np.clip(pick, task.action_low, task.action_high)
+        return ActionPick(acts, np.full(len(grasps), ACTION_SOURCES["expert"], np.int8))
+
+
 class NoActions:
     """The grasp-only task has no primitive: zero actions."""
 

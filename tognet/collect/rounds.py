@@ -53,6 +53,7 @@ def collect_round(
 ) -> dict[str, Any]:
     """Collect one round into ``out`` (a dataset folder); returns its summary (also ``out/summary.json``)."""
     out = Path(out)
+    config = round_config.collect_config(config)
     grasp_model = str(grasp_model) if grasp_model else None
     task_model = str(task_model) if task_model else None
     jobs = plan_jobs(task, round_index, objects, round_config.episodes, round_config.policy, config,

@@ -68,7 +68,7 @@ FIELDS: dict[str, tuple[np.dtype, tuple[int, ...]]] = {
 #: stored in every manifest. Collection policies name themselves with these.
 GRASP_SOURCES: dict[str, int] = {"unknown": 0, "nms": 1, "cem": 2, "given": 3}
 ACTION_SOURCES: dict[str, int] = {"unknown": 0, "uniform": 1, "baseline_random": 2, "policy": 3, "given": 4,
-                                  "none": 5}
+                                  "none": 5, "expert": 6}
 #: int8 code of each failure reason (the names of ``tognet.tasks.FailureReason``); stored in every
 #: manifest so a dataset explains its own codes. ``failure`` may also be given as these names.
 FAILURE_CODES: dict[str, int] = {

@@ -152,11 +152,9 @@ class OraclePlanner:
         self.config = config or PlanConfig()
 
     def _actions(self, grasp: Grasp, in_hand: Any) -> list[NDArray[np.float64]]:
-        from tognet.sim.oracle import hammer_actions, sweep_actions
+        from tognet.sim.oracle import task_actions
 
-        if self.sim.task_name == "hammering":
-            return hammer_actions(self.sim, grasp, in_hand=in_hand)
-        return sweep_actions(self.sim, grasp, in_hand=in_hand)
+        return task_actions(self.sim, grasp, in_hand=in_hand)
 
     def plan(self, observation: Any, rng: np.random.Generator) -> Plan:
         """The best (grasp, action) the search finds for the simulator's current scene."""

@@ -1,7 +1,9 @@
 """Hand-computed ("oracle") actions for any grasp on any object, from the settled scene's geometry.
 
-Used to measure whether a task is feasible at all on an object (some (grasp, action) succeeds) and by
-the scripted diagnostics; never by a learning policy (they read the simulator's ground truth).
+Used to measure whether a task is feasible at all on an object (some (grasp, action) succeeds), by the
+scripted diagnostics, by the evaluation's Oracle and, when a collection round asks for it
+(``PolicyConfig.expert_actions``), as privileged exploration while collecting training data; never by a
+planner a robot could run (they read the simulator's ground truth).
 
 The tool is assumed to stay in the hand as it was grasped: its vertices are taken from the settled pose
 into the gripper frame (x = jaw axis at yaw phi, z up, origin at the grasp centre). The start yaw of both
@@ -113,3 +115,13 @@ def sweep_actions(
         a = np.array([*(grip - ref - np.asarray(c.nominal_offset)), a_phi])
         out.append(np.clip(a, task.action_low, task.action_high))
     return out
+
+
+def task_actions(sim: Simulator, grasp: Grasp, in_hand: object = None) -> list[NDArray[np.float64]]:
+    """The candidate actions of the simulator's task for ``grasp`` (:func:`hammer_actions` or
+    :func:`sweep_actions`); ``in_hand`` as there (default: the tool as it lies, taken into the hand)."""
+    if sim.task_name == "hammering":
+        return hammer_actions(sim, grasp, in_hand=in_hand)
+    if sim.task_name == "sweeping":
+        return sweep_actions(sim, grasp, in_hand=in_hand)
+    raise ValueError(f"no hand-computed actions for task {sim.task_name!r}")
