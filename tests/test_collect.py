@@ -278,3 +278,17 @@ def test_expert_exploration_uses_the_oracles_actions_and_is_saved_with_the_data(
     assert saved["policy"]["expert_actions"] == 1.0
     with pytest.raises(ValueError, match="no hand-computed actions"):
         task_actions(Simulator(SimConfig(), "grasping", objects[0]), Grasp(0.0, 0.0, 0.05, 0.0))
+
+
+def test_a_round_whose_first_jobs_all_fail_stops_and_writes_nothing_for_them(objects, tmp_path):
+    """A model every job fails to load is the round's fault, not the objects': stop, and a resume after
+    the fix runs those jobs (they are not recorded as done)."""
+    from tognet.collect.rounds import RoundError
+
+    bad = tmp_path / "bad.pt"
+    bad.write_bytes(b"not a checkpoint")
+    with pytest.raises(RoundError, match="all failed.*bad.pt"):
+        collect_round("sweeping", 1, objects, RoundConfig(episodes=9), SMALL, tmp_path / "d",
+                      grasp_model=bad, executor=LocalExecutor(0), progress=False, log=lambda _m: None)
+    manifest = json.loads((tmp_path / "d" / "manifest.json").read_text())
+    assert manifest["shards"] == [] and not list((tmp_path / "d").glob("shard-*"))

@@ -87,3 +87,19 @@ def test_masked_rows_with_non_finite_values_carry_nothing():
     out["loss"].backward()
     assert torch.all(torch.isfinite(batch["action_pred"].grad))
     assert torch.all(batch["action_pred"].grad[[1, 2]] == 0)
+
+
+def test_action_sigma_from_the_data_replaces_the_fixed_one():
+    from tognet.model.loss import resolve_loss
+
+    fixed = LossConfig(action_sigma=SIGMA)
+    assert resolve_loss(fixed, torch.tensor([1.0, 2.0, 3.0, 4.0])) is fixed
+    data = LossConfig(action_sigma=SIGMA, action_sigma_source="data")
+    got = resolve_loss(data, torch.tensor([0.05, 0.04, 0.01, 0.6]))
+    assert got.action_sigma == pytest.approx((0.05, 0.04, 0.01, 0.6))
+    b = BATCH
+    small = tognet_loss(b["q_g_logit"], b["q_tg_logit"], b["action_pred"], b["grasp_success"],
+                        b["task_success"], b["action"], fixed)["action"]
+    wide = tognet_loss(b["q_g_logit"], b["q_tg_logit"], b["action_pred"], b["grasp_success"],
+                       b["task_success"], b["action"], got)["action"]
+    assert float(wide) < float(small)  # wider sigma, smaller action term; the others are unchanged

@@ -138,6 +138,10 @@ class PipelineConfig(Config):
     train: TrainConfig = doc(
         factory=TrainConfig, text="Training settings (its epochs are replaced by each round's)."
     )
+    task_train: dict[str, TrainConfig] = doc(
+        factory=dict,
+        text="Per-task replacement of ``train`` (a whole TrainConfig; fields left out take their defaults).",
+    )
     object_workers: int | None = doc(
         None, "Processes generating objects (None: the collection's worker count)."
     )
@@ -146,6 +150,10 @@ class PipelineConfig(Config):
     def rounds_for(self, task: str) -> tuple[RoundConfig, ...]:
         """The rounds of ``task``."""
         return self.task_rounds.get(task, self.rounds)
+
+    def train_for(self, task: str) -> TrainConfig:
+        """The training settings of ``task``."""
+        return self.task_train.get(task, self.train)
 
 
 PRESETS = ("ci", "quick", "paper")

@@ -88,7 +88,7 @@ def train_round(data_dirs: Sequence[Path], task: str, out: Path, preset: Pipelin
     marker = out / DONE
     if marker.is_file():
         return json.loads(marker.read_text())
-    config = preset.train.replace(epochs=epochs)
+    config = preset.train_for(task).replace(epochs=epochs)
     resume = (out / "last.pt").is_file()
     t0 = time.perf_counter()
     result = train(list(data_dirs), task, out, config, resume=resume, progress=progress, log=log,

@@ -24,6 +24,7 @@ from tognet.collect.jobs import Job, JobOutput, plan_jobs
 from tognet.collect.store import RoundStore
 from tognet.collect.workers import Executor, LocalExecutor
 from tognet.data.episodes import ACTION_SOURCES, FAILURE_CODES, GRASP_SOURCES, read_columns, shard_paths
+from tognet.errors import TognetError
 from tognet.objects.record import ObjectRecord
 
 SUMMARY = "summary.json"
@@ -36,6 +37,9 @@ def file_digest(path: str | Path | None) -> str | None:
     digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
     return digest[:16]
 
+
+#: A round whose first this-many jobs all fail stops (the settings are wrong, not the objects).
+FAILURES_BEFORE_ABORT = 8
 
 def collect_round(
     task: str,
@@ -81,13 +85,32 @@ def collect_round(
                    desc=f"{task} r{round_index}", unit="ep", mininterval=1.0, dynamic_ncols=True)
     errors: list[str] = []
     t0 = time.perf_counter()
+    # Failed jobs are held back until some job of this run succeeds: when the first few all fail, the
+    # cause is the round's settings (a model that does not load, ...), not bad objects, so the round stops
+    # and those jobs stay unwritten (a resume after the fix runs them).
+    held: list[tuple[int, dict[str, Any]]] = []
+    succeeded = False
+    give_up = min(FAILURES_BEFORE_ABORT, len(todo))
 
     def on_result(job: Job, output: JobOutput) -> None:
+        nonlocal succeeded
         info = {k: v for k, v in output.stats.items() if not k.startswith("bad_scene:")}
         if output.error:
             errors.append(output.error)
             info["error"] = output.error
+            if not succeeded:
+                held.append((job.index, info))
+                if len(held) >= give_up:
+                    raise RoundError(f"{task} round {round_index}: the first {len(held)} jobs all failed, so "
+                                     f"the round stopped (nothing written for them): {output.error}")
+                return
             log(f"skipped job {job.index}: {output.error}")
+        elif not succeeded:
+            succeeded = True
+            for index, held_info in held:
+                log(f"skipped job {index}: {held_info['error']}")
+                store.add(index, {}, held_info)
+            held.clear()
         store.add(job.index, output.columns, info)
         tally.add(output.columns)
         if bar is not None:
@@ -112,6 +135,10 @@ def collect_round(
     (out / SUMMARY).write_text(json.dumps(summary, indent=2) + "\n")
     log(format_round_table(summary))
     return summary
+
+
+class RoundError(TognetError):
+    """A round cannot go on (every job so far failed for the same kind of reason)."""
 
 
 class _Tally:

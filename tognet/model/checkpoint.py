@@ -22,7 +22,8 @@ code's TrainConfig has (written by an older tognet) or has one it does not know,
 :class:`CheckpointError` with the reason; so does a truncated or corrupt file, or weights that do not fit
 the recorded architecture. A missing *training-loop* field (one added later, e.g. a data-loading setting)
 takes its default and is listed in ``payload["defaults_filled"]``: it cannot change what the network
-computes.
+computes; so does a loss field in :data:`SAME_AS_BEFORE`, whose value there is how older checkpoints
+were trained.
 """
 
 from __future__ import annotations
@@ -48,6 +49,11 @@ FORMAT_VERSION = 1
 
 class CheckpointError(TognetError):
     """A checkpoint is missing, corrupt, of another format version or does not match this code."""
+
+
+#: Nested config fields added after checkpoints existed, with the value that reproduces how those older
+#: checkpoints were trained (so a missing one is filled in, not refused).
+SAME_AS_BEFORE: dict[str, object] = {"loss.action_sigma_source": "fixed"}
 
 
 @functools.lru_cache(maxsize=1)
@@ -139,6 +145,15 @@ def load_checkpoint(path: str | Path, map_location: str | torch.device = "cpu") 
     filled = [k for k in missing if "." not in k and not isinstance(defaults[k], dict)]
     if filled and isinstance(payload.get("config"), dict):
         payload["config"] = {**payload["config"], **{k: defaults[k] for k in filled}}
+    # loss fields added later whose default is what every older checkpoint was trained with
+    older = [k for k in missing if k in SAME_AS_BEFORE]
+    if older and isinstance(payload.get("config"), dict):
+        cfg = dict(payload["config"])
+        for key in older:
+            section, name = key.split(".")
+            cfg[section] = {**cfg.get(section, {}), name: SAME_AS_BEFORE[key]}
+        payload["config"] = cfg
+        filled = filled + older
     payload["defaults_filled"] = filled
     missing = [k for k in missing if k not in filled]
     if missing:

@@ -34,6 +34,14 @@ class LossConfig(Config):
         "Diagonal of the constant policy std-dev Sigma^(1/2) per action dim (m, m, m, rad); the default is "
         "about the std-dev of the uniform random actions (+-5 cm, +-pi/20), so the term is of order one.",
     )
+    action_sigma_source: Literal["fixed", "data"] = doc(
+        "fixed",
+        "'fixed': Sigma^(1/2) is ``action_sigma``. 'data': it is the per-dimension std-dev of the training "
+        "data's successful actions (the network's action normalisation, kept by warm-started rounds), so "
+        "that each dimension's term is of order one whatever the spread of the actions that succeed: with "
+        "``action_sigma`` far below that spread the action term outweighs the two cross-entropies many "
+        "times over and the shared layers learn little else.",
+    )
     reduction: Literal["batch", "masked"] = doc(
         "batch",
         "'batch': every term summed over its masked episodes and divided by the batch size N (the paper's "

@@ -108,6 +108,16 @@ def reduce_sums(
     return config.weight_grasp * grasp, config.weight_task * task, config.weight_action * act
 
 
+def resolve_loss(config: LossConfig, action_std: Sequence[float] | torch.Tensor) -> LossConfig:
+    """``config`` with ``action_sigma`` set to ``action_std`` (the model's action normalisation) when its
+    ``action_sigma_source`` is 'data'; unchanged otherwise. The training loop and the validation pass use
+    the result, so the loss a checkpoint reports is the loss it was trained on."""
+    if config.action_sigma_source != "data":
+        return config
+    std = torch.as_tensor(action_std, dtype=torch.float64).flatten().tolist()
+    return config.replace(action_sigma=tuple(float(v) for v in std))
+
+
 def q_task(q_g: torch.Tensor, q_tg: torch.Tensor) -> torch.Tensor:
     """Q_T = Q_T|G * Q_G (probabilities)."""
     return q_tg * q_g

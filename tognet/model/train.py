@@ -45,7 +45,7 @@ from tognet.model.checkpoint import (
     save_checkpoint,
 )
 from tognet.model.config import TrainConfig
-from tognet.model.loss import masked_sums, reduce_sums, tognet_loss
+from tognet.model.loss import masked_sums, reduce_sums, resolve_loss, tognet_loss
 from tognet.model.metrics import head_metrics
 from tognet.model.network import TOGNet, normalization_from_data
 from tognet.model.runtime import select_device, set_threads, tune_allocator
@@ -101,6 +101,7 @@ def evaluate(model: TOGNet, batches: Iterable[Batch], config: TrainConfig, progr
     Only predictions and labels are kept, not crops."""
     model.eval()
     device = next(model.parameters()).device
+    loss_config = resolve_loss(config.loss, model.action_std)
     n = 0
     sums = torch.zeros(3, dtype=torch.float64)
     counts = torch.zeros(2, dtype=torch.float64)
@@ -111,7 +112,7 @@ def evaluate(model: TOGNet, batches: Iterable[Batch], config: TrainConfig, progr
         out = model(b.crop, b.z)
         a_pred = model.denormalize_action(out["action_norm"])
         terms = masked_sums(out["q_g_logit"], out["q_tg_logit"], a_pred, b.s_g, b.s_t, b.action,
-                            config.loss.action_sigma)
+                            loss_config.action_sigma)
         sums += torch.stack(terms[:3]).double().cpu()
         counts += torch.stack(terms[3:]).double().cpu()
         q_g.append(torch.sigmoid(out["q_g_logit"]).cpu())
@@ -124,7 +125,7 @@ def evaluate(model: TOGNet, batches: Iterable[Batch], config: TrainConfig, progr
     result: dict[str, Any] = {"count": n}
     if n == 0:
         return result
-    g, t, a = reduce_sums(sums[0], sums[1], sums[2], n, counts[0], counts[1], config.loss)
+    g, t, a = reduce_sums(sums[0], sums[1], sums[2], n, counts[0], counts[1], loss_config)
     result.update(loss=float(g + t + a), grasp=float(g), task=float(t), action=float(a))
     result["metrics"] = head_metrics(
         torch.cat(q_g).numpy(), torch.cat(q_tg).numpy(), torch.cat(act).numpy(),
@@ -400,6 +401,10 @@ def _train(
     log(f"task {task}: {n_train} training episodes ({split['train_objects']} objects), {n_val} validation "
         f"({split['val_objects']} objects) in {counts['shards']} shards, device {device}")
 
+    loss_config = resolve_loss(config.loss, model.action_std)
+    if config.loss.action_sigma_source == "data":
+        log("action term's Sigma^(1/2) from the data's successful actions: "
+            + ", ".join(f"{v:.3g}" for v in loss_config.action_sigma))
     stopped_early = False
     n_batches = stream.num_batches("train", config.batch_size)
     for epoch in range(start_epoch, config.epochs):
@@ -420,7 +425,7 @@ def _train(
             out_b = model(b.crop, b.z)
             parts = tognet_loss(out_b["q_g_logit"], out_b["q_tg_logit"],
                                 model.denormalize_action(out_b["action_norm"]), b.s_g, b.s_t, b.action,
-                                config.loss)
+                                loss_config)
             optimizer.zero_grad(set_to_none=True)
             parts["loss"].backward()
             optimizer.step()
