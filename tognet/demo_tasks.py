@@ -50,14 +50,13 @@ def run_task_demo(out: Path, seeds: int = 5, gif: bool = True) -> list[Path]:
         grasp = grasp_on_object(pos, rot, point, jaw)
         action = hammer_action(sim, "far_end")
         recorder = GifRecorder(sim.model, every=1)
-        sim._recorder = recorder
         try:
-            result = sim.execute(grasp, np.asarray(action), seed=0)
+            with sim.recording(recorder):
+                result = sim.execute(grasp, np.asarray(action), seed=0)
             path = out / "hammering.gif"
             recorder.save(path)
         finally:
             recorder.close()
-            sim._recorder = None
         written.append(path)
         typer.echo(
             f"one hammering episode (far-end grasp): grasp_success={result.grasp_success} "

@@ -106,7 +106,7 @@ def hammer_action(
     yaw_push = -np.arctan2(n[1], n[0])
     yaw_impact = yaw_push + impact_angle
     rot = np.array([[np.cos(yaw_impact), -np.sin(yaw_impact)], [np.sin(yaw_impact), np.cos(yaw_impact)]])
-    ref = np.asarray(sim._scene["reference"])
+    ref = np.asarray(sim.scene["reference"])
     target = np.array([ref[0] - 0.5 * c.peg_length, ref[1]])
     grip_xy = target - rot @ f[:2]
     grip_z = ref[2] - f[2]
@@ -140,8 +140,8 @@ def sweep_action(sim: Simulator, grasp_name: str, clip: bool = True, yaw: float 
     task = sim.task
     assert task is not None
     c = sim.config.sweeping
-    ref = np.asarray(sim._scene["reference"])
-    cans = sim._scene["layout"]["cans"]
+    ref = np.asarray(sim.scene["reference"])
+    cans = sim.scene["layout"]["cans"]
     # The tool's footprint in the gripper frame (yaw = nominal = 0: gripper x = world x).
     corners = np.array(
         [[x, y, 0.0] for x in (0.0, L_LONG) for y in (0.0, L_WIDTH)]

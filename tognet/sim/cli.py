@@ -182,8 +182,10 @@ def register(app: typer.Typer) -> None:
                 from tognet.sim.render import GifRecorder
 
                 recorder = GifRecorder(sim.model, every=1)  # a frame every 20 ms of sim time, shown at 25 fps
-                sim._recorder = recorder
-            result = sim.execute(g, a, trial_seed)
+                with sim.recording(recorder):
+                    result = sim.execute(g, a, trial_seed)
+            else:
+                result = sim.execute(g, a, trial_seed)
             typer.echo(
                 f"grasp_success={result.grasp_success} task_success={result.task_success} "
                 f"valid={result.valid} failure={result.failure.value}"

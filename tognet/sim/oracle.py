@@ -29,9 +29,9 @@ def tool_in_gripper(sim: Simulator, grasp: Grasp, in_hand: object = None) -> NDA
     (3, 4) pose a trial's ``info["in_hand"]`` reports after the lift) if given, else the settled pose."""
     if in_hand is not None:
         pose = np.asarray(in_hand, dtype=np.float64)
-        return sim._vertices @ pose[:, :3].T + pose[:, 3]
+        return sim.vertices @ pose[:, :3].T + pose[:, 3]
     pos, rot = sim.object_pose()
-    world = sim._vertices @ rot.T + pos
+    world = sim.vertices @ rot.T + pos
     d = world - grasp.position
     r = _rot(-grasp.phi)
     xy = d[:, :2] @ r.T
@@ -57,7 +57,7 @@ def hammer_actions(
     c = sim.config.hammering
     pts = tool_in_gripper(sim, grasp, in_hand)
     radius = np.hypot(pts[:, 0], pts[:, 1])
-    ref = np.asarray(sim._scene["reference"])
+    ref = np.asarray(sim.scene["reference"])
     target = np.array([ref[0] - 0.5 * c.peg_length, ref[1]])
     bottom = float(pts[:, 2].min())
     lo, hi = task.action_low, task.action_high
@@ -102,8 +102,8 @@ def sweep_actions(
     assert task is not None and sim.task_name == "sweeping"
     c = sim.config.sweeping
     pts = tool_in_gripper(sim, grasp, in_hand)
-    ref = np.asarray(sim._scene["reference"])
-    cans = sim._scene["layout"]["cans"]
+    ref = np.asarray(sim.scene["reference"])
+    cans = sim.scene["layout"]["cans"]
     can_y_min = min(y for _, y, _ in cans)
     out = []
     for a_phi in yaws:

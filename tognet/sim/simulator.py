@@ -29,7 +29,10 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Any
 
 import mujoco
@@ -219,6 +222,35 @@ class Simulator:
         self.timers = {"physics": 0.0, "raycast": 0.0}
         self.steps = 0  # physics steps taken since construction (for benchmarks)
         self._image_buffers: dict[tuple[str, int, str], NDArray[Any]] = {}
+
+    # --- public views for other modules (oracles, animations) -----------------------------------------
+    @property
+    def vertices(self) -> NDArray[np.float64]:
+        """(N, 3) collision vertices of the object in its own (mesh) frame; read-only."""
+        return self._vertices
+
+    @property
+    def scene(self) -> Mapping[str, Any] | None:
+        """The settled scene of the last :meth:`reset` (None before one): ``seed``, ``layout`` (the task's
+        prop layout, plain numbers), ``reference`` (the task's reference point, world) and ``object_com``
+        (the settled object's centre of mass, world). Read it, do not change it."""
+        return MappingProxyType(self._scene) if self._scene else None
+
+    @property
+    def recorder(self) -> Callable[[Simulator], None] | None:
+        """What is called with the simulator after every chunk of physics steps (an animation's frame
+        grabber), or None; set it for a block of code with :meth:`recording`."""
+        return self._recorder
+
+    @contextmanager
+    def recording(self, recorder: Callable[[Simulator], None]) -> Iterator[Simulator]:
+        """Call ``recorder(self)`` after every chunk of physics steps inside the ``with`` block (e.g. a
+        :class:`tognet.sim.render.GifRecorder`); detached again on leaving it, also on an error."""
+        previous, self._recorder = self._recorder, recorder
+        try:
+            yield self
+        finally:
+            self._recorder = previous
 
     # ------------------------------------------------------------------------------------------------
     def _object_vertices(self) -> NDArray[np.float64]:
