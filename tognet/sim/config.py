@@ -42,7 +42,8 @@ class PhysicsConfig(Config):
     gravity: float = doc(9.81, "Gravity (m/s^2), along -z.")
     sleep: bool = doc(
         False,
-        "Let MuJoCo put resting bodies to sleep. Off: measured, it breaks hammering (4/16 far-end hits).",
+        "Let MuJoCo put resting bodies to sleep. Off: measured with it on, the T hammer held at the far end "
+        "of its handle drove the peg home in only 4 of 16 trials.",
     )
 
 
