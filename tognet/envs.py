@@ -80,7 +80,7 @@ class TognetEnv(gym.Env):
         if task == "grasping":
             self.action_space = spaces.Box(grasp_low, grasp_high, dtype=np.float64)
         else:
-            t = get_task(task, getattr(self.config, task))
+            t = get_task(task, self.config.task_config(task))
             self.action_space = spaces.Box(
                 np.concatenate([grasp_low, t.action_low]),
                 np.concatenate([grasp_high, t.action_high]),
