@@ -30,9 +30,10 @@ import numpy as np
 
 from tognet.config import ConfigError
 from tognet.objects.generate import generate_set
+from tognet.objects.handmade import grasp_on_object, make_test_tools
 from tognet.sim import SimConfig, Simulator
-from tognet.sim.checks import HAMMER_GRASPS, SWEEP_GRASPS, hammer_action, sweep_action
-from tognet.sim.tools import grasp_on_object, make_test_tools
+from tognet.tasks.hammering_props import HAMMER_GRASPS, hammer_action
+from tognet.tasks.sweeping_props import SWEEP_GRASPS, sweep_action
 
 _REFERENCE_XML = """
 <mujoco>

@@ -24,9 +24,9 @@ import torch
 
 
 def _image(folder: Path) -> tuple[Path, Path, Path]:
+    from tognet.objects.handmade import make_test_tools
     from tognet.planning.camera import save_camera_pose, save_depth_png, save_intrinsics
     from tognet.sim import SimConfig, Simulator
-    from tognet.sim.tools import make_test_tools
 
     tools = make_test_tools(folder / "tools")
     obs = Simulator(SimConfig(), "hammering", tools["t_hammer"]).reset(3)

@@ -30,8 +30,8 @@ def _worker(task: str, episodes: int, config: Path | None) -> None:
     from bench_episodes import _plan, episode_records
 
     from tognet.objects.generate import generate_set
+    from tognet.objects.handmade import make_test_tools
     from tognet.sim import SimConfig, Simulator
-    from tognet.sim.tools import make_test_tools
 
     cfg = SimConfig.load(config) if config else SimConfig()
     with tempfile.TemporaryDirectory() as tmp:

@@ -72,7 +72,7 @@ def measure(kind: str, records: list, seed: int) -> tuple[list[float], list[floa
             scene = prepare_depth(obs.depth, obs.camera)
             cands = sample_antipodal(scene, None, AntipodalConfig(axis_direction="both"), rng)
             pos, rot = sim.object_pose()
-            xy = (sim._vertices @ rot.T + pos)[:, :2]
+            xy = (sim.vertices @ rot.T + pos)[:, :2]
             lengths.append(tool_length(xy))
             if len(cands) == 0:
                 continue

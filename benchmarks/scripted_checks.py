@@ -18,7 +18,8 @@ import numpy as np
 
 from tognet.config import ConfigError
 from tognet.sim import SimConfig
-from tognet.sim.checks import hammer_handle_grasp, run_check
+from tognet.sim.scripted_checks import run_check
+from tognet.tasks.hammering_props import hammer_handle_grasp
 
 
 def _load_config(parser: argparse.ArgumentParser, path: Path | None) -> SimConfig:

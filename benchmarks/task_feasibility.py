@@ -23,7 +23,8 @@ from tognet.geometry import Grasp
 from tognet.grasping import AntipodalConfig, NMSConfig, nms, prepare_depth, sample_antipodal
 from tognet.objects.record import load_catalog
 from tognet.sim import SimConfig, Simulator
-from tognet.sim.oracle import hammer_actions, sweep_actions
+from tognet.tasks.hammering_props import hammer_actions
+from tognet.tasks.sweeping_props import sweep_actions
 
 
 def run(task: str, records: list, cfg: SimConfig, modes: int, randoms: int, budget: float) -> dict:

@@ -2,8 +2,8 @@
 
 import pytest
 
+from tognet.objects.handmade import make_test_tools
 from tognet.sim import SimConfig, Simulator
-from tognet.sim.tools import make_test_tools
 
 
 @pytest.fixture(scope="session")

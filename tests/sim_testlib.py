@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 from tognet.geometry import Grasp
+from tognet.objects.handmade import grasp_on_object
 from tognet.sim import Simulator
-from tognet.sim.checks import HAMMER_GRASPS
-from tognet.sim.tools import grasp_on_object
+from tognet.tasks.hammering_props import HAMMER_GRASPS
 
 
 def far_end_grasp(sim: Simulator) -> Grasp:

@@ -155,3 +155,13 @@ def test_failure_reasons_by_name(tmp_path):
     assert back.failure.tolist() == [0, 1, 7, 6]
     assert json.loads((tmp_path / "manifest.json").read_text())["failure_codes"] == FAILURE_CODES
     assert set(FAILURE_CODES) == {r.value for r in FailureReason}
+
+
+def test_failure_codes_follow_the_enum_and_keep_their_stored_values():
+    from tognet.data.episodes import FAILURE_CODES
+    from tognet.tasks import FailureReason
+
+    assert list(FAILURE_CODES) == [r.value for r in FailureReason]
+    # Shards already on disk hold these integers: they must never change.
+    assert FAILURE_CODES == {"none": 0, "grasp_failed": 1, "dropped": 2, "collision_before_motion": 3,
+                             "missed": 4, "task_failed": 5, "timeout": 6, "unstable": 7}

@@ -11,10 +11,9 @@ from sim_testlib import far_end_grasp
 
 from tognet.geometry import Grasp
 from tognet.objects.generate import generate_set
+from tognet.objects.handmade import grasp_on_object
 from tognet.sim import FailureReason, SimConfig, Simulator
-from tognet.sim.checks import SWEEP_GRASPS, sweep_action
-from tognet.sim.oracle import sweep_actions
-from tognet.sim.tools import grasp_on_object
+from tognet.tasks.sweeping_props import SWEEP_GRASPS, sweep_action, sweep_actions
 
 PEG_HALF = 0.5 * SimConfig().hammering.peg_length
 

@@ -3,10 +3,11 @@
 import numpy as np
 
 from tognet.geometry import Grasp
+from tognet.objects.handmade import grasp_on_object
 from tognet.sim import SimConfig, Simulator
-from tognet.sim.checks import HAMMER_GRASPS, SWEEP_GRASPS
-from tognet.sim.oracle import hammer_actions, sweep_actions, tool_in_gripper
-from tognet.sim.tools import grasp_on_object
+from tognet.sim.oracle import tool_in_gripper
+from tognet.tasks.hammering_props import HAMMER_GRASPS, hammer_actions
+from tognet.tasks.sweeping_props import SWEEP_GRASPS, sweep_actions
 
 
 def test_in_hand_pose_puts_the_grasp_point_at_the_gripper_centre(tools):

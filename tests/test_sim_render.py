@@ -36,12 +36,13 @@ def test_an_episode_gif_lasts_as_long_as_the_simulated_episode(hammer_sim, tmp_p
     _renderer_or_skip()
     hammer_sim.reset(3)
     recorder = GifRecorder(hammer_sim.model, width=96, height=72, every=1, max_fps=25)
-    hammer_sim._recorder = recorder
     try:
-        result = hammer_sim.execute(hammer_sim.default_grasp(), np.zeros(4), seed=0)
+        with hammer_sim.recording(recorder):
+            assert hammer_sim.recorder is recorder
+            result = hammer_sim.execute(hammer_sim.default_grasp(), np.zeros(4), seed=0)
+        assert hammer_sim.recorder is None
         path = recorder.save(tmp_path / "episode.gif", fps=25, hold=0.5)
     finally:
-        hammer_sim._recorder = None
         recorder.close()
     times = np.asarray(recorder.times)
     assert np.all(np.diff(times) >= 0.04 - 1e-9)  # max_fps: no frame closer than 1/25 s to the last

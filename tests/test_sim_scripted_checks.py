@@ -3,7 +3,8 @@
 import pytest
 
 from tognet.sim import SimConfig
-from tognet.sim.checks import hammer_handle_grasp, run_check
+from tognet.sim.scripted_checks import run_check
+from tognet.tasks.hammering_props import hammer_handle_grasp
 
 SEEDS = range(100, 108)
 

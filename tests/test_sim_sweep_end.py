@@ -2,9 +2,9 @@
 
 import numpy as np
 
+from tognet.objects.handmade import grasp_on_object, make_l_tool
 from tognet.sim import FailureReason, SimConfig, Simulator
-from tognet.sim.checks import SWEEP_GRASPS, sweep_action
-from tognet.sim.tools import grasp_on_object, make_l_tool
+from tognet.tasks.sweeping_props import SWEEP_GRASPS, sweep_action
 
 
 def _run(tmp_path, grasp_name, settle_time, seed=3, fallen_margin=0.01):
@@ -68,7 +68,7 @@ def _hold_run(tmp_path, margin, action_shift=(0.0, 0.0, 0.0, 0.0), lite=True, li
 
     def counting_step(n):
         step(n)
-        held_steps[0] += n if sim._held_cans else 0
+        held_steps[0] += n if sim.props.held else 0
         if lite_steps is not None:
             lite_steps[0] += n if sim.model is not sim._full[0] else 0
 

@@ -8,7 +8,7 @@ from sim_testlib import far_end_grasp
 from tognet.geometry import Camera, CameraIntrinsics, Grasp
 from tognet.geometry.transforms import make_pose, rot_x
 from tognet.sim import FailureReason, SimConfig, Simulator
-from tognet.sim.checks import hammer_action
+from tognet.tasks.hammering_props import hammer_action
 
 
 def full_ray_cast(sim, cam):
@@ -173,10 +173,10 @@ def test_peg_friction_does_not_creep_below_its_threshold(hammer_sim):
     moved = {}
     for fraction in (0.9, 1.2):
         hammer_sim.reset(0)
-        start = d.qpos[hammer_sim._peg_qadr]
+        start = d.qpos[hammer_sim.props._peg_qadr]
         d.qfrc_applied[dof] = fraction * friction
         mujoco.mj_step(m, d, 1000)  # 2 s
-        moved[fraction] = d.qpos[hammer_sim._peg_qadr] - start
+        moved[fraction] = d.qpos[hammer_sim.props._peg_qadr] - start
         d.qfrc_applied[dof] = 0.0
     assert abs(moved[0.9]) < 0.0005  # under half a millimetre in 2 s at 90 % of the friction
     assert moved[1.2] > 0.04  # above it the peg slides home

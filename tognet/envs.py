@@ -29,9 +29,9 @@ import numpy as np
 from gymnasium import spaces
 
 from tognet.geometry import Grasp
+from tognet.objects.handmade import make_test_tools
 from tognet.objects.record import ObjectRecord, load_catalog
 from tognet.sim import Observation, SimConfig, Simulator
-from tognet.sim.tools import make_test_tools
 from tognet.tasks import get_task
 
 ENV_IDS = {

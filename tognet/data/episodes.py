@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from tognet.errors import TognetError
+from tognet.tasks.base import FailureReason
 
 #: Version of the shard/manifest layout; bump on any incompatible change.
 FORMAT_VERSION = 2
@@ -69,18 +70,10 @@ FIELDS: dict[str, tuple[np.dtype, tuple[int, ...]]] = {
 GRASP_SOURCES: dict[str, int] = {"unknown": 0, "nms": 1, "cem": 2, "given": 3}
 ACTION_SOURCES: dict[str, int] = {"unknown": 0, "uniform": 1, "baseline_random": 2, "policy": 3, "given": 4,
                                   "none": 5, "expert": 6}
-#: int8 code of each failure reason (the names of ``tognet.tasks.FailureReason``); stored in every
-#: manifest so a dataset explains its own codes. ``failure`` may also be given as these names.
-FAILURE_CODES: dict[str, int] = {
-    "none": 0,
-    "grasp_failed": 1,
-    "dropped": 2,
-    "collision_before_motion": 3,
-    "missed": 4,
-    "task_failed": 5,
-    "timeout": 6,
-    "unstable": 7,
-}
+#: int8 code of each failure reason, by name: its position in ``tognet.tasks.FailureReason`` (append new
+#: reasons at the end of the enum so stored codes keep their meaning); stored in every manifest so a
+#: dataset explains its own codes. ``failure`` may also be given as these names.
+FAILURE_CODES: dict[str, int] = {reason.value: code for code, reason in enumerate(FailureReason)}
 
 
 def failure_code(reason: object) -> int:

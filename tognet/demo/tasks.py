@@ -24,9 +24,10 @@ def run_task_demo(out: Path, seeds: int = 5, gif: bool = True) -> list[Path]:
     """Run the checks and write the pictures into ``out``; returns the files written."""
     from tognet.grasping import AntipodalConfig, prepare_depth
     from tognet.grasping.cli import render_grasps
+    from tognet.objects.handmade import grasp_on_object, make_test_tools
     from tognet.sim import SimConfig, Simulator
-    from tognet.sim.checks import hammer_action, run_check
-    from tognet.sim.tools import grasp_on_object, make_test_tools
+    from tognet.sim.scripted_checks import run_check
+    from tognet.tasks.hammering_props import hammer_action
 
     written: list[Path] = []
     typer.echo(f"does the grasp matter? scripted checks, {seeds} scenes each (hand-computed actions):")
@@ -42,22 +43,21 @@ def run_task_demo(out: Path, seeds: int = 5, gif: bool = True) -> list[Path]:
     written.append(png)
     typer.echo(f"antipodal candidates (NMS modes) on the simulated depth image -> {png}")
     if gif:
-        from tognet.sim.checks import HAMMER_GRASPS
         from tognet.sim.render import GifRecorder
+        from tognet.tasks.hammering_props import HAMMER_GRASPS
 
         pos, rot = sim.object_pose()
         point, jaw = HAMMER_GRASPS["far_end"][0], HAMMER_GRASPS["far_end"][1]
         grasp = grasp_on_object(pos, rot, point, jaw)
         action = hammer_action(sim, "far_end")
         recorder = GifRecorder(sim.model, every=1)
-        sim._recorder = recorder
         try:
-            result = sim.execute(grasp, np.asarray(action), seed=0)
+            with sim.recording(recorder):
+                result = sim.execute(grasp, np.asarray(action), seed=0)
             path = out / "hammering.gif"
             recorder.save(path)
         finally:
             recorder.close()
-            sim._recorder = None
         written.append(path)
         typer.echo(
             f"one hammering episode (far-end grasp): grasp_success={result.grasp_success} "

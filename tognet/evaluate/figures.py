@@ -203,13 +203,12 @@ def animate_episode(config: EvalConfig, task: str, obj: ObjectRecord, scene_seed
     sim.reset(scene_seed)
     recorder = GifRecorder(sim.model, width=size[0], height=size[1], every=1, lookat=(0.0, 0.05, 0.0),
                            distance=1.35, azimuth=90.0, elevation=-45.0, max_fps=20)
-    sim._recorder = recorder
     try:
-        result = sim.execute(Grasp.from_array(np.asarray(grasp, dtype=np.float64)),
-                             np.asarray(action, dtype=np.float64), seed=config.trial_seed)
+        with sim.recording(recorder):
+            result = sim.execute(Grasp.from_array(np.asarray(grasp, dtype=np.float64)),
+                                 np.asarray(action, dtype=np.float64), seed=config.trial_seed)
         recorder.save(path, fps=20, max_frames=90)
     finally:
-        sim._recorder = None
         recorder.close()
     return path, result
 

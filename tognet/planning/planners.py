@@ -159,7 +159,7 @@ class OraclePlanner:
     def plan(self, observation: Any, rng: np.random.Generator) -> Plan:
         """The best (grasp, action) the search finds for the simulator's current scene."""
         sim, oc = self.sim, self.config.oracle
-        scene = getattr(sim, "_scene", None)
+        scene = sim.scene
         if scene is None or scene["seed"] != observation.seed or sim.obj.object_id != observation.object_id:
             raise ValueError("the Oracle's simulator does not hold the observation's scene: reset it first")
         timing: dict[str, float] = {}

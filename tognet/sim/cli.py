@@ -10,6 +10,9 @@ from typing import Any
 import typer
 
 from tognet.cliutil import user_errors
+from tognet.tasks import DEFAULT_TASK, TASK_NAMES, get_props, get_task
+
+SIM_TASKS = (*TASK_NAMES, "grasping")  # as tognet.sim.simulator.SIM_TASKS (that module loads MuJoCo)
 
 
 def _short(value: object) -> object:
@@ -31,31 +34,30 @@ def search_trial(sim: Any, grasp: Any, action: Any, trial_seed: int, tool: str |
     import numpy as np
 
     from tognet.geometry import Grasp
-    from tognet.sim.checks import HAMMER_GRASPS, SWEEP_GRASPS, hammer_action, sweep_action
-    from tognet.sim.oracle import hammer_actions, sweep_actions
-    from tognet.sim.tools import grasp_on_object
+    from tognet.objects.handmade import grasp_on_object
+    from tognet.sim.oracle import task_actions
 
-    hammering = sim.task_name == "hammering"
     pairs: list[tuple[Any, Any]] = []
     if grasp is not None:
         grasps = [grasp]
     else:
         grasps = []
         pos, rot = sim.object_pose()
-        known = {"t_hammer": ("far_end",), "l_tool": ("short_end",)}.get(tool or "", ())
+        props = sim.props
+        known = (props.demo_grasp,) if tool and tool == props.check_object else ()
         for name in known:
-            spec = (HAMMER_GRASPS if hammering else SWEEP_GRASPS)[name]
+            spec = props.check_grasps[name]
             g = grasp_on_object(pos, rot, spec[0], spec[1])
             grasps.append(g)
             if action is None:
-                pairs.append((g, hammer_action(sim, name) if hammering else sweep_action(sim, name)))
+                pairs.append((g, props.check_action(name)))
         d = sim.default_grasp()
         grasps += [d, Grasp(d.x, d.y, d.z, float((d.phi + np.pi) % (2 * np.pi)))]
     for g in grasps:
         if action is not None:
             pairs.append((g, np.asarray(action, dtype=np.float64)))
         else:
-            pairs += [(g, a) for a in (hammer_actions(sim, g) if hammering else sweep_actions(sim, g))]
+            pairs += [(g, a) for a in task_actions(sim, g)]
     tried = 0
     for g, a in pairs[:max_trials]:
         try:
@@ -81,7 +83,7 @@ def register(app: typer.Typer) -> None:
     @app.command("sim")
     @user_errors
     def sim_command(
-        task: str = typer.Option("hammering", help="Task: sweeping, hammering or grasping."),
+        task: str = typer.Option(DEFAULT_TASK, help=f"Task: {', '.join(SIM_TASKS)}."),
         object_id: str = typer.Option(
             "", "--object", help="Object id in --objects; without --objects: t_hammer or l_tool (hand-made)."
         ),
@@ -109,11 +111,11 @@ def register(app: typer.Typer) -> None:
 
         from tognet.geometry import Grasp
         from tognet.objects import load_object
+        from tognet.objects.handmade import make_test_tools
         from tognet.sim import SimConfig, Simulator
-        from tognet.sim.tools import make_test_tools
 
-        if task not in ("sweeping", "hammering", "grasping"):
-            raise ValueError(f"unknown --task '{task}'; known: sweeping, hammering, grasping")
+        if task not in SIM_TASKS:
+            raise ValueError(f"unknown --task '{task}'; known: {', '.join(SIM_TASKS)}")
         for values, name in ((grasp, "--grasp"), (action, "--action")):
             if values is not None and not all(math.isfinite(v) for v in values):
                 raise ValueError(f"{name} takes 4 finite numbers, got {' '.join(map(str, values))}")
@@ -126,7 +128,9 @@ def register(app: typer.Typer) -> None:
         with tempfile.TemporaryDirectory() as tmp:
             if objects is None:
                 tools = make_test_tools(tmp)
-                oid = object_id or ("l_tool" if task == "sweeping" else "t_hammer")
+                oid = object_id or (
+                    get_props(get_task(task)).check_object if task in TASK_NAMES else "t_hammer"
+                )
                 if oid not in tools:
                     raise ValueError(
                         f"without --objects the object is one of {', '.join(tools)}, got '{oid}'"
@@ -147,7 +151,7 @@ def register(app: typer.Typer) -> None:
                 save_camera_pose(pose, obs.camera.pose)
                 typer.echo(f"depth image (16-bit millimetres) -> {depth_png}, intrinsics -> {intr}, camera "
                            f"pose -> {pose}; plan on it: tognet plan --depth {depth_png} --intrinsics {intr} "
-                           f"--camera-pose {pose} --task {task if task != 'grasping' else 'hammering'}")
+                           f"--camera-pose {pose} --task {task if task in TASK_NAMES else DEFAULT_TASK}")
             if grasp is not None:
                 g = Grasp.from_array(grasp)
                 half = 0.5 * np.asarray(cfg.world.table_size)
@@ -182,8 +186,10 @@ def register(app: typer.Typer) -> None:
                 from tognet.sim.render import GifRecorder
 
                 recorder = GifRecorder(sim.model, every=1)  # a frame every 20 ms of sim time, shown at 25 fps
-                sim._recorder = recorder
-            result = sim.execute(g, a, trial_seed)
+                with sim.recording(recorder):
+                    result = sim.execute(g, a, trial_seed)
+            else:
+                result = sim.execute(g, a, trial_seed)
             typer.echo(
                 f"grasp_success={result.grasp_success} task_success={result.task_success} "
                 f"valid={result.valid} failure={result.failure.value}"

@@ -18,7 +18,7 @@ class RenderError(TognetError):
 
 
 class GifRecorder:
-    """Captures a frame every ``every`` physics chunks while attached to a Simulator (``sim._recorder``),
+    """Captures a frame every ``every`` physics chunks while attached to a Simulator (``sim.recording``),
     with the simulated time of each, so that :meth:`save` writes a GIF that plays at the real speed.
     ``max_fps``: skip chunks less than 1 / max_fps simulated seconds after the last frame (rendering is
     the cost: ~30 ms a frame with software GL)."""

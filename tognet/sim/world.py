@@ -1,4 +1,5 @@
-"""The MJCF of the world: table, ground, the object, the gripper and the task's props.
+"""The MJCF of the world: table, ground, the object, the gripper and the task's props (their MJCF comes
+from the task, :class:`tognet.tasks.props.TaskProps`).
 
 Geom groups (what the depth camera sees is chosen by group):
 0 table and ground (seen), 1 the object's visual mesh (seen), 2 the gripper, 3 the object's convex
@@ -13,11 +14,12 @@ import numpy as np
 
 from tognet.objects.record import ObjectRecord
 from tognet.sim.config import SimConfig
+from tognet.tasks.props import PropsMJCF
 
 GROUP_STATIC, GROUP_OBJECT_VISUAL, GROUP_GRIPPER, GROUP_OBJECT_COLLISION, GROUP_PROPS, GROUP_DECOR = range(6)
 #: Geom groups the depth camera's rays can hit.
 CAMERA_GROUPS = (GROUP_STATIC, GROUP_OBJECT_VISUAL)
-MAX_CANS = 2
+#: Where the gripper waits, out of the camera's view, while a scene settles.
 PARK = (0.3, 0.0, 1.2)
 # Travel of the gripper base's slide joints (m): x, y, z of the grasp centre.
 BASE_RANGE = ((-2.0, 2.0), (-2.0, 2.0), (-0.2, 2.0))
@@ -127,75 +129,29 @@ def _gripper_xml(config: SimConfig) -> tuple[list[str], list[str]]:
     return body, act
 
 
-def _props_xml(config: SimConfig, task: str) -> list[str]:
-    h = config.world.table_height
-    if task == "sweeping":
-        c = config.sweeping
-        out = []
-        for i in range(MAX_CANS):
-            out += [
-                f'<body name="can_{i}" pos="{1.5 + 0.3 * i:g} 1.5 {-h + 0.5 * c.can_height:.4f}">',
-                f'  <freejoint name="can_{i}"/>',
-                f'  <geom name="can_{i}" type="cylinder" size="{c.can_radius:g} {0.5 * c.can_height:g}" '
-                f'mass="0.2" friction="{c.can_friction:g} 0.005 0.0001" group="{GROUP_PROPS}" '
-                'rgba="0.75 0.1 0.1 1"/>',
-                "</body>",
-            ]
-        return out
-    if task == "hammering":
-        c = config.hammering
-        depth, width, height = c.slot_size
-        s, length = c.peg_size, c.peg_length
-        # The slot body sits on the slot face at the peg's axis height; the peg slides along +x into it.
-        # A very stiff friction-loss constraint (solreffriction at the minimum safe time constant) stops
-        # the creep MuJoCo's soft dry friction shows under a slow push. The joint's limits are as stiff
-        # (solreflimit): the slot's floor stops a hard-driven peg (MuJoCo's default limit let it sink 3-5 mm
-        # past the floor on a good blow).
-        dt = config.physics.timestep
-        return [
-            f'<body name="slot" pos="0.3 0 {c.peg_height:g}">',
-            f'  <geom name="slot" type="box" size="{0.5 * depth:g} {0.5 * width:g} {0.5 * height:g}" '
-            f'pos="{0.5 * depth:g} 0 {0.5 * height - c.peg_height:g}" group="{GROUP_PROPS}" priority="3" '
-            f'solref="{c.contact_solref[0]:g} {c.contact_solref[1]:g}" '
-            'rgba="0.3 0.45 0.7 1"/>',
-            '  <body name="peg">',
-            f'    <joint name="peg" type="slide" axis="1 0 0" range="-0.001 {0.5 * length + 0.001:g}" '
-            f'frictionloss="{c.peg_friction:g}" solreffriction="{2 * dt:g} 1" solreflimit="{2 * dt:g} 1" '
-            f'solimpfriction="{c.peg_friction_impedance:g} {c.peg_friction_impedance:g} 0.001"/>',
-            f'    <geom name="peg" type="box" size="{0.5 * length:g} {0.5 * s:g} {0.5 * s:g}" '
-            f'mass="{c.peg_mass:g}" '
-            f'friction="0.5 0.005 0.0001" priority="3" '
-            f'solref="{c.contact_solref[0]:g} {c.contact_solref[1]:g}" '
-            f'group="{GROUP_PROPS}" rgba="0.9 0.8 0.2 1"/>',
-            "  </body>",
-            "</body>",
-        ]
-    return []
-
-
-def _touch_pairs(task: str) -> list[tuple[str, str, str]]:
-    """(sensor name, tool-side MJCF attribute, prop body) of each touch sensor of ``task``."""
-    props = {"sweeping": [f"can_{i}" for i in range(MAX_CANS)], "hammering": ["slot"]}.get(task, [])
+def _touch_pairs(props: PropsMJCF) -> list[tuple[str, str, str]]:
+    """(sensor name, tool-side MJCF attribute, prop body) of each touch sensor of the props."""
     sides = (("object", 'body1="object"'), ("hand", 'subtree1="hand"'))
-    return [(f"touch_{side}_{prop}", attr, prop) for prop in props for side, attr in sides]
+    return [(f"touch_{side}_{prop}", attr, prop) for prop in props.touch_bodies for side, attr in sides]
 
 
-def touch_sensor_names(task: str) -> list[str]:
-    """Names of the contact sensors that count the tool's and the hand's contacts with the task's props."""
-    return [name for name, _, _ in _touch_pairs(task)]
+def touch_sensor_names(props: PropsMJCF) -> list[str]:
+    """Names of the contact sensors that count the tool's and the hand's contacts with the props."""
+    return [name for name, _, _ in _touch_pairs(props)]
 
 
-def _touch_sensors_xml(task: str) -> list[str]:
+def _touch_sensors_xml(props: PropsMJCF) -> list[str]:
     """Contact sensors (MuJoCo computes them every step, cheaply) for a prop touch check after any step."""
     lines = [
         f'    <contact name="{name}" {side} subtree2="{prop}" data="found"/>'
-        for name, side, prop in _touch_pairs(task)
+        for name, side, prop in _touch_pairs(props)
     ]
     return ["  <sensor>", *lines, "  </sensor>"] if lines else []
 
 
-def world_xml(config: SimConfig, obj: ObjectRecord, task: str) -> str:
-    """The whole world as an MJCF string (meshes by absolute path)."""
+def world_xml(config: SimConfig, obj: ObjectRecord, props: PropsMJCF) -> str:
+    """The whole world as an MJCF string (meshes by absolute path), with the task's ``props``
+    (:meth:`tognet.tasks.props.TaskProps.mjcf`; an empty ``PropsMJCF()``: no props)."""
     p, w = config.physics, config.world
     lx, ly = 0.5 * w.table_size[0], 0.5 * w.table_size[1]
     h = w.table_height
@@ -232,13 +188,13 @@ def world_xml(config: SimConfig, obj: ObjectRecord, task: str) -> str:
         *[f"    {leg}" for leg in legs],
         *[f"    {line}" for line in obj_body],
         *[f"    {line}" for line in grip_body],
-        *[f"    {line}" for line in _props_xml(config, task)],
+        *[f"    {line}" for line in props.bodies],
         "  </worldbody>",
         "  <actuator>",
         *[f"    {a}" for a in actuators],
         "  </actuator>",
-        *(['  <contact><exclude body1="slot" body2="peg"/></contact>'] if task == "hammering" else []),
-        *_touch_sensors_xml(task),
+        *([f"  <contact>{''.join(props.contact)}</contact>"] if props.contact else []),
+        *_touch_sensors_xml(props),
         "</mujoco>",
         "",
     ]

@@ -1,25 +1,66 @@
-"""Tasks by name: each module describes its set-up, motion primitive and success rule (no MuJoCo here)."""
+"""Tasks by name: each module describes its set-up, motion primitive and success rule (no MuJoCo here),
+and a sibling ``<task>_props`` module hands the simulator its props (:class:`tognet.tasks.props.TaskProps`).
+
+Adding a task: its two modules, and one line in ``_REGISTRY`` below.
+"""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 from tognet.tasks.base import FailureReason, Motion, Task, TaskOutcome
 from tognet.tasks.hammering import Hammering, HammeringConfig
+from tognet.tasks.hammering_props import HammeringProps
+from tognet.tasks.props import TaskProps
 from tognet.tasks.sweeping import Sweeping, SweepingConfig
+from tognet.tasks.sweeping_props import SweepingProps
 
-_REGISTRY: dict[str, type[Task]] = {"sweeping": Sweeping, "hammering": Hammering}
+
+@dataclass(frozen=True)
+class TaskEntry:
+    """A registered task: its class, its config class (a section of ``SimConfig`` named after the task)
+    and its props in the simulator."""
+
+    task: type[Task]
+    config: type
+    props: type[TaskProps]
+
+
+_REGISTRY: dict[str, TaskEntry] = {
+    "sweeping": TaskEntry(Sweeping, SweepingConfig, SweepingProps),
+    "hammering": TaskEntry(Hammering, HammeringConfig, HammeringProps),
+}
 TASK_NAMES: tuple[str, ...] = tuple(_REGISTRY)
+#: The task a command runs when none is named.
+DEFAULT_TASK = "hammering"
+
+
+def _entry(name: str) -> TaskEntry:
+    if name not in _REGISTRY:
+        raise ValueError(f"unknown task '{name}'; known tasks: {', '.join(TASK_NAMES)}")
+    return _REGISTRY[name]
 
 
 def get_task(name: str, config: Any = None) -> Task:
-    """The task called ``name`` (``sweeping`` or ``hammering``), with its default or the given config."""
-    if name not in _REGISTRY:
-        raise ValueError(f"unknown task '{name}'; known tasks: {', '.join(TASK_NAMES)}")
-    return _REGISTRY[name](config)
+    """The task called ``name`` (one of ``TASK_NAMES``), with its default or the given config."""
+    return _entry(name).task(config)
+
+
+def task_config_class(name: str) -> type:
+    """The config class of the task called ``name``."""
+    return _entry(name).config
+
+
+def get_props(task: Task | None) -> TaskProps:
+    """The simulator props of ``task`` (a :class:`Task` from :func:`get_task`); None: no props (grasping)."""
+    if task is None:
+        return TaskProps()
+    return _entry(task.name).props(task)
 
 
 __all__ = [
+    "DEFAULT_TASK",
     "FailureReason",
     "Hammering",
     "HammeringConfig",
@@ -28,6 +69,10 @@ __all__ = [
     "SweepingConfig",
     "TASK_NAMES",
     "Task",
+    "TaskEntry",
     "TaskOutcome",
+    "TaskProps",
+    "get_props",
     "get_task",
+    "task_config_class",
 ]

@@ -15,7 +15,10 @@ from numpy.typing import NDArray
 
 
 class FailureReason(StrEnum):
-    """Why an episode did not succeed (NONE for a success)."""
+    """Why an episode did not succeed (NONE for a success).
+
+    The order is the int8 code stored in episode shards (``tognet.data.episodes.FAILURE_CODES``): add new
+    reasons at the end only."""
 
     NONE = "none"
     GRASP_FAILED = "grasp_failed"  # the tool was not held clear of the table after the lift

@@ -1,23 +1,28 @@
-"""Hand-made test tools (a T-shaped hammer, a long L-shaped tool) built from boxes with assemble_object.
+"""Hand-made test objects (a T-shaped hammer, a long L-shaped tool) built from boxes with assemble_object.
 
 They serve the scripted checks, the tests and the CLI's demo before (or besides) generated sets.
-Object frame: the tool lies flat on z = 0, its handle (long edge) along +x starting at x = 0.
+Object frame: the tool lies flat on z = 0, its handle (long edge) along +x starting at x = 0. Their sizes
+are plain constants here (cheap to import: the mesh libraries load when an object is made).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import trimesh
 
 from tognet.geometry import Grasp
-from tognet.objects.assemble import assemble_object
-from tognet.objects.compose import union
-from tognet.objects.record import ObjectRecord, write_catalog
+
+if TYPE_CHECKING:
+    import trimesh
+
+    from tognet.objects.record import ObjectRecord
 
 
 def _box(lo: tuple[float, float, float], hi: tuple[float, float, float]) -> trimesh.Trimesh:
+    import trimesh
+
     extents = [h - low for low, h in zip(lo, hi, strict=True)]
     centre = [(h + low) / 2 for low, h in zip(lo, hi, strict=True)]
     return trimesh.creation.box(extents=extents, transform=trimesh.transformations.translation_matrix(centre))
@@ -37,6 +42,9 @@ def make_t_hammer(
     set_dir: str | Path, object_id: str = "t_hammer", density: float = 1200.0, friction: float = 0.8
 ) -> ObjectRecord:
     """A T-shaped hammer: handle along +x from x = 0, head across y at x = 0.28 .. 0.31."""
+    from tognet.objects.assemble import assemble_object
+    from tognet.objects.compose import union
+
     w, (hx, hy, hz) = HAMMER_WIDTH, HAMMER_HEAD
     handle = _box((0.0, -w / 2, 0.0), (HAMMER_HANDLE, w / 2, w))
     head = _box((HAMMER_HANDLE, -hy / 2, 0.0), (HAMMER_HANDLE + hx, hy / 2, hz))
@@ -58,6 +66,9 @@ def make_l_tool(
     set_dir: str | Path, object_id: str = "l_tool", density: float = 1000.0, friction: float = 0.8
 ) -> ObjectRecord:
     """A long L: long bar along +x from x = 0 to 0.30, short bar along +y from the x = 0 end (10 cm)."""
+    from tognet.objects.assemble import assemble_object
+    from tognet.objects.compose import union
+
     w = L_WIDTH
     long_bar = _box((0.0, 0.0, 0.0), (L_LONG, w, w))
     short_bar = _box((0.0, w, 0.0), (w, L_SHORT, w))
@@ -77,8 +88,10 @@ def make_l_tool(
 
 def make_test_tools(set_dir: str | Path) -> dict[str, ObjectRecord]:
     """Write both tools and a catalog into ``set_dir``; returns them by id."""
+    from tognet.objects.record import write_catalog
+
     records = [make_t_hammer(set_dir), make_l_tool(set_dir)]
-    write_catalog(set_dir, records, meta={"source": "tognet.sim.tools"})
+    write_catalog(set_dir, records, meta={"source": "tognet.objects.handmade"})
     return {r.object_id: r for r in records}
 
 
