@@ -5,7 +5,7 @@ import re
 import imageio.v3 as iio
 from PIL import Image
 
-from tognet.demo_tasks import run_task_demo
+from tognet.demo.tasks import run_task_demo
 
 
 def test_task_demo_prints_check_rates_and_writes_pictures(tmp_path, capsys):

@@ -33,3 +33,31 @@ def test_env_rejects_a_wrong_action_shape():
     with pytest.raises(ValueError, match="shape"):
         env.unwrapped.step(np.zeros(4))
     env.close()
+
+
+@pytest.mark.parametrize("env_id", ["tognet/Hammering-v0", "tognet/Grasping-v0"])
+def test_actions_are_float32_and_the_normalised_box_maps_onto_the_physical_one(env_id):
+    raw = gym.make(env_id).unwrapped
+    norm = gym.make(env_id, normalize_actions=True).unwrapped
+    assert raw.action_space.dtype == np.float32 and norm.action_space.dtype == np.float32
+    np.testing.assert_array_equal(norm.action_space.low, -1.0)
+    np.testing.assert_array_equal(norm.action_space.high, 1.0)
+    np.testing.assert_allclose(raw.action_space.low, raw.action_low, atol=1e-6)
+    check_env(norm, skip_render_check=True)
+    # The box corners and centre map onto the physical corners and centre.
+    np.testing.assert_allclose(norm.physical_action(-np.ones(norm.action_space.shape)), raw.action_low)
+    np.testing.assert_allclose(norm.physical_action(np.ones(norm.action_space.shape)), raw.action_high)
+    centre = 0.5 * (raw.action_low + raw.action_high)
+    np.testing.assert_allclose(norm.physical_action(np.zeros(norm.action_space.shape)), centre)
+    # The same scene and the same physical action give the same episode through either box.
+    raw.reset(seed=3)
+    norm.reset(seed=3)
+    physical = raw.action_low + 0.3 * (raw.action_high - raw.action_low)
+    _, r1, _, _, info1 = raw.step(physical)
+    _, r2, _, _, info2 = norm.step(np.full(norm.action_space.shape, -0.4))
+    np.testing.assert_allclose(info2["action"], physical)
+    assert (r1, info1["failure"], info1["trial_seed"]) == (r2, info2["failure"], info2["trial_seed"])
+    with pytest.raises(ValueError, match="non-finite"):
+        norm.step(np.full(norm.action_space.shape, np.nan))
+    raw.close()
+    norm.close()

@@ -18,11 +18,12 @@ app = typer.Typer(
 
 # Modules that define ``register(app: typer.Typer) -> None``; each is optional while the project grows.
 _COMMAND_MODULES = (
-    "tognet.demo",
+    "tognet.demo.cli",
     "tognet.objects.cli",
     "tognet.sim.cli",
     "tognet.grasping.cli",
     "tognet.model.cli",
+    "tognet.data.cli",
     "tognet.collect.cli",
     "tognet.planning.cli",
     "tognet.evaluate.cli",

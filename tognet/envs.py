@@ -6,6 +6,11 @@ Registered on ``import tognet.envs``:
   a_phi), 8 numbers; reward = 1.0 when the task succeeds.
 - ``tognet/Grasping-v0``: action = grasp only (4 numbers); reward = 1.0 when the tool is lifted clear.
 
+Actions are float32. With ``normalize_actions=True`` the action box is [-1, 1] in every dimension and is
+mapped linearly onto the physical box (metres, radians) before execution, the layout most RL libraries
+expect (Stable-Baselines3's checker warns on unnormalised boxes); ``info['action']`` always holds the
+physical action that ran.
+
 Observation: ``depth`` (H, W) float32 metres with holes as 0.0 (gymnasium boxes cannot hold NaN),
 ``intrinsics`` (fx, fy, cx, cy), ``camera_pose`` (4x4 world_from_camera) and ``reference`` (the task's
 reference point). ``info`` carries the labels (grasp_success, task_success, valid), the failure reason, the
@@ -47,8 +52,10 @@ class TognetEnv(gym.Env):
         objects: str | Path | None = None,
         config: SimConfig | None = None,
         max_cached: int = 8,
+        normalize_actions: bool = False,
     ) -> None:
         self.task_name = task
+        self.normalize_actions = normalize_actions
         self.config = config or SimConfig()
         self._tmp: tempfile.TemporaryDirectory[str] | None = None
         if objects is None:
@@ -78,14 +85,32 @@ class TognetEnv(gym.Env):
         grasp_low = np.array([-lx, -ly, 0.0, 0.0])
         grasp_high = np.array([lx, ly, 0.3, 2 * np.pi])
         if task == "grasping":
-            self.action_space = spaces.Box(grasp_low, grasp_high, dtype=np.float64)
+            low, high = grasp_low, grasp_high
         else:
             t = get_task(task, self.config.task_config(task))
+            low = np.concatenate([grasp_low, t.action_low])
+            high = np.concatenate([grasp_high, t.action_high])
+        # The physical box (float64, used to map normalised actions); the space itself is float32.
+        self.action_low = np.asarray(low, dtype=np.float64)
+        self.action_high = np.asarray(high, dtype=np.float64)
+        if normalize_actions:
+            ones = np.ones(len(low), dtype=np.float32)
+            self.action_space = spaces.Box(-ones, ones, dtype=np.float32)
+        else:
             self.action_space = spaces.Box(
-                np.concatenate([grasp_low, t.action_low]),
-                np.concatenate([grasp_high, t.action_high]),
-                dtype=np.float64,
+                self.action_low.astype(np.float32), self.action_high.astype(np.float32), dtype=np.float32
             )
+
+    def physical_action(self, action: np.ndarray) -> np.ndarray:
+        """The action in metres and radians (float64): unchanged, or mapped from [-1, 1] when normalised."""
+        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        if a.shape != self.action_space.shape:
+            raise ValueError(f"action must have shape {self.action_space.shape}, got {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"action has non-finite values: {a.tolist()}")
+        if self.normalize_actions:
+            a = self.action_low + 0.5 * (np.clip(a, -1.0, 1.0) + 1.0) * (self.action_high - self.action_low)
+        return a
 
     def _simulator(self, record: ObjectRecord) -> Simulator:
         sim = self._sims.get(record.object_id)
@@ -128,9 +153,7 @@ class TognetEnv(gym.Env):
         """Execute the grasp (and motion); one step ends the episode."""
         if self._sim is None or self._obs is None:
             raise RuntimeError("call reset() before step()")
-        a = np.asarray(action, dtype=np.float64).reshape(-1)
-        if a.shape != self.action_space.shape:
-            raise ValueError(f"action must have shape {self.action_space.shape}, got {a.shape}")
+        a = self.physical_action(action)
         grasp = Grasp.from_array(a[:4])
         motion = a[4:] if self.task_name != "grasping" else None
         trial_seed = int(self.np_random.integers(2**31 - 1))
@@ -144,6 +167,7 @@ class TognetEnv(gym.Env):
             "object_id": self._obs.object_id,
             "scene_seed": self._obs.seed,
             "trial_seed": trial_seed,
+            "action": a,
             **result.info,
         }
         return self._observation(self._obs), float(success), True, False, info

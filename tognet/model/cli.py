@@ -1,4 +1,4 @@
-"""Commands: ``tognet train``, ``tognet model info|eval``, ``tognet data info|synthetic``."""
+"""Commands: ``tognet train`` and ``tognet model info|eval`` (``tognet data`` is in tognet/data/cli.py)."""
 
 from __future__ import annotations
 
@@ -7,10 +7,9 @@ from pathlib import Path
 
 import typer
 
-from tognet.cliutil import out_file, out_folder, user_errors
+from tognet.cliutil import out_file, user_errors
 
 model_app = typer.Typer(help="Inspect and evaluate trained TOG-Net checkpoints.", no_args_is_help=True)
-data_app = typer.Typer(help="Inspect and make episode datasets.", no_args_is_help=True)
 
 
 @user_errors
@@ -105,90 +104,9 @@ def eval_cmd(
     typer.echo(text)
 
 
-def _totals_from_shards(folder: Path) -> dict[str, object]:
-    """Task and manifest-style totals of a dataset folder read from its shards' label columns."""
-    from tognet.data.episodes import DatasetError, _summarise, manifest_totals, read_columns, shard_paths
-
-    entries, tasks = [], set()
-    for path in shard_paths(folder):
-        cols, meta = read_columns(path, ("valid", "grasp_success", "task_success", "failure"))
-        entry = _summarise(cols["valid"], cols["grasp_success"], cols["task_success"], cols["failure"])
-        entries.append({**entry, "count": entry["episodes"]})
-        if meta.get("task") is not None:
-            tasks.add(str(meta["task"]))
-    if len(tasks) > 1:
-        raise DatasetError(f"{folder}: shards of several tasks ({', '.join(sorted(tasks))}) and no manifest")
-    return {"task": tasks.pop() if tasks else None, "totals": manifest_totals(entries)}
-
-
-@user_errors
-def data_info_cmd(
-    folder: Path = typer.Argument(..., help="An episode dataset folder (with manifest.json), or a folder of "
-                                  "them (e.g. one per worker)."),
-    check: bool = typer.Option(False, "--check", help="Also read every shard (finds corrupt ones)."),
-) -> None:
-    """Print a dataset's manifest totals; with --check read every shard."""
-    from tqdm import tqdm
-
-    from tognet.data.episodes import (
-        DatasetError,
-        describe_dataset,
-        expand_dataset_dirs,
-        read_shard,
-        shard_paths,
-    )
-
-    folders = expand_dataset_dirs([folder])
-    descs = describe_dataset(folders)["datasets"]
-    for d in descs:
-        if not d["shards"] and d["task"] is None:
-            raise DatasetError(f"{d['dir']}: not an episode dataset (no manifest.json and no shards)")
-    for d in descs:
-        entry = {"dir": d["dir"], "task": d["task"], "shards": len(d["shards"]), "totals": d["totals"]}
-        if d["totals"] is None:  # shards without a manifest (a writer stopped early): count them ourselves
-            entry.update(_totals_from_shards(Path(d["dir"])))
-            typer.secho(f"note: {d['dir']} has no manifest.json (a collection stopped before writing it?); "
-                        f"task and totals read from its {len(d['shards'])} shard(s)", err=True,
-                        fg=typer.colors.YELLOW)
-        typer.echo(json.dumps(entry, indent=2))
-    if check:
-        bad = []
-        paths = [p for f in folders for p in shard_paths(f)]
-        for path in tqdm(paths, desc="checking shards", unit="shard"):
-            try:
-                read_shard(path)
-            except DatasetError as exc:
-                bad.append(str(exc))
-        for b in bad:
-            typer.echo(f"bad: {b}")
-        if bad:
-            raise DatasetError(f"{len(bad)} bad shard(s) in {folder}")
-        typer.echo("all shards readable")
-
-
-@user_errors
-def data_synth_cmd(
-    out: Path = typer.Argument(..., help="Dataset folder to write (appends if it exists)."),
-    task: str = typer.Option("synthetic", help="Task name recorded in the manifest."),
-    episodes: int = typer.Option(2000, min=1, help="Number of episodes."),
-    objects: int = typer.Option(40, min=1, help="Number of distinct bar objects."),
-    seed: int = typer.Option(0, help="Random seed."),
-    shard_size: int = typer.Option(1024, min=1, help="Episodes per shard."),
-) -> None:
-    """Write synthetic bar episodes with a known labelling rule (for smoke tests of training)."""
-    from tognet.data.synthetic import write_synthetic_dataset
-
-    out_folder(out, "OUT")
-    write_synthetic_dataset(out, task=task, n=episodes, shard_size=shard_size, seed=seed, n_objects=objects)
-    typer.echo(f"wrote {episodes} synthetic episodes to {out}")
-
-
 def register(app: typer.Typer) -> None:
-    """Add ``train``, ``model`` and ``data`` to the tognet command."""
+    """Add ``train`` and ``model`` to the tognet command."""
     app.command("train")(train_cmd)
     model_app.command("info")(info_cmd)
     model_app.command("eval")(eval_cmd)
-    data_app.command("info")(data_info_cmd)
-    data_app.command("synthetic")(data_synth_cmd)
     app.add_typer(model_app, name="model")
-    app.add_typer(data_app, name="data")

@@ -69,7 +69,7 @@ def demo(
     for sheet in sheets:
         typer.echo(f"  {sheet}")
     if tasks:
-        from tognet.demo_tasks import run_task_demo
+        from tognet.demo.tasks import run_task_demo
 
         run_task_demo(out / "tasks", seeds=seeds, gif=gif)
     if evaluate:
