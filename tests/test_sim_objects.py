@@ -25,7 +25,7 @@ def test_task_runs_on_generated_objects(objects, kind, task):
         obs = sim.reset(11)
         assert obs.task == task and obs.object_id == record.object_id
         # The settled object is on the table, in the grasping half, and the camera sees it.
-        com = sim.data.xipos[sim._obj_body]
+        com = sim.data.xipos[sim.object_body]
         assert com[0] < 0 and abs(com[1]) < 0.38 and com[2] > 0
         pts = obs.camera.deproject(obs.depth).reshape(-1, 3)
         assert np.sum(pts[:, 2] > 0.008) > 100

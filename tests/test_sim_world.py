@@ -47,7 +47,7 @@ def test_depth_image_matches_full_ray_casting_and_sees_the_object(hammer_sim):
     assert np.median(heights) == pytest.approx(0.0, abs=1e-4)
     tool = pts[on_table & (pts[:, 2] > 0.01)]
     assert 300 < len(tool) < 20000 and tool[:, 2].max() == pytest.approx(0.03, abs=0.004)
-    com = hammer_sim.data.xipos[hammer_sim._obj_body]
+    com = hammer_sim.data.xipos[hammer_sim.object_body]
     assert np.linalg.norm(tool[:, :2].mean(axis=0) - com[:2]) < 0.05
 
 
@@ -58,7 +58,7 @@ def test_depth_image_from_odd_camera_poses_matches_full_ray_casting(hammer_sim, 
     # A camera inside the tool's handle has mesh vertices behind it (the mesh rasteriser declines and
     # MuJoCo's rays take over); one below the table top cannot use the table's outline. Both still match.
     hammer_sim.reset(5)
-    com = hammer_sim.data.xipos[hammer_sim._obj_body]
+    com = hammer_sim.data.xipos[hammer_sim.object_body]
     intr = CameraIntrinsics(width=64, height=48, fx=40.0, fy=40.0, cx=31.5, cy=23.5)
     down = Camera.looking_down(intr, (0, 0, 1)).pose[:3, :3]
     cam = Camera(intr, make_pose(rot_x(tilt) @ down, (com[0] + offset[0], com[1] + offset[1], offset[2])))
