@@ -5,6 +5,7 @@ import json
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import tognet.sim
@@ -54,3 +55,30 @@ def test_a_sim_config_saved_in_the_old_layout_loads_and_round_trips(model, tmp_p
     for name in TASK_NAMES:
         section = cfg.task_config(name)
         assert SimConfig.from_dict(cfg.replace(**{name: section}).to_dict()) == cfg
+
+
+@pytest.mark.parametrize("task", TASK_NAMES)
+def test_every_registered_task_hands_the_simulator_its_props(task, tools):
+    from tognet.sim import Simulator
+    from tognet.tasks import get_props, get_task
+    from tognet.tasks.props import TaskProps
+
+    props = get_props(get_task(task))
+    assert type(props) is not TaskProps  # a task's own props, not the empty set
+    assert props.check_object in tools and set(props.outcome_keys)
+    sim = Simulator(SimConfig(), task, tools[props.check_object])
+    assert type(sim.props) is type(props)
+    mjcf = sim.props.mjcf(sim.config, 4)
+    assert mjcf.target_geoms and mjcf.touch_bodies
+    sim.reset(1)
+    assert len(sim.props.positions()) >= 1
+    result = sim.execute(sim.default_grasp(), np.zeros(4), seed=0)
+    assert result.valid
+
+
+def test_grasping_has_no_props(tools):
+    from tognet.sim import Simulator
+
+    sim = Simulator(SimConfig(), "grasping", tools["t_hammer"])
+    sim.reset(0)
+    assert len(sim.props.positions()) == 0 and not sim.props.near()

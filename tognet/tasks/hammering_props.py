@@ -176,9 +176,9 @@ class HammeringProps(TaskProps):
         ),
     }
 
-    def check_action(self, grasp: str | tuple[Any, ...], clip: bool = True, yaw: float = 0.0) -> NDArray[
-        np.float64
-    ]:
+    def check_action(
+        self, grasp: str | tuple[Any, ...], clip: bool = True, yaw: float = 0.0
+    ) -> NDArray[np.float64]:
         """Hand-computed hammering action for a T-hammer grasp (``yaw`` unused): see :func:`hammer_action`."""
         return hammer_action(self.host, grasp, clip=clip)
 

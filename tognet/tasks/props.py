@@ -173,9 +173,9 @@ class TaskProps:
         """The task config the scripted checks run under (default: as given)."""
         return task_config
 
-    def check_action(self, grasp: str | tuple[Any, ...], clip: bool = True, yaw: float = 0.0) -> NDArray[
-        np.float64
-    ]:
+    def check_action(
+        self, grasp: str | tuple[Any, ...], clip: bool = True, yaw: float = 0.0
+    ) -> NDArray[np.float64]:
         """The scripted checks' hand-computed action for a grasp of :attr:`check_grasps` (its name or its
         spec) on the hand-made object in the host's settled scene."""
         raise ValueError("no scripted checks without a task")

@@ -42,6 +42,10 @@ class SweepingProps(TaskProps):
     outcome_keys = ("cans_on_ground",)
     config: SweepingConfig
 
+    def __init__(self, task: Any = None) -> None:
+        super().__init__(task)
+        self._on_ground: list[bool] = []  # per can in play, during and after a primitive run
+
     # --- world ----------------------------------------------------------------------------------------
     def mjcf(self, sim_config: Any, group: int) -> PropsMJCF:
         """Free cylinders ``can_i``, parked beside the table until a scene places them."""
@@ -314,9 +318,9 @@ class SweepingProps(TaskProps):
         """Two cans in every scene: the grasp must catch both."""
         return task_config.replace(n_cans=(2,))
 
-    def check_action(self, grasp: str | tuple[Any, ...], clip: bool = True, yaw: float = 0.0) -> NDArray[
-        np.float64
-    ]:
+    def check_action(
+        self, grasp: str | tuple[Any, ...], clip: bool = True, yaw: float = 0.0
+    ) -> NDArray[np.float64]:
         """Hand-computed sweeping action: the L tool's long bar centred on the cans, just behind them.
 
         The start yaw is the nominal one turned by ``yaw`` (a_phi, within the action box when ``clip``):
