@@ -29,8 +29,8 @@ class NMSConfig(Config):
 
     radius: float = doc(
         0.02,
-        "Minimum distance (m, in the scaled grasp space) between kept grasps (6-29 modes, medians 14-20, "
-        "measured on synthetic T, L, bar and rod tools of 15-35 cm).",
+        "Minimum distance (m, in the scaled grasp space) between kept grasps: a few tens of modes per tool "
+        "(benchmarks/RESULTS.md).",
     )
     angle_scale: float = doc(
         0.03, "Metres per radian of jaw-axis angle difference (0.03: a 60 degree turn counts like 3.1 cm)."

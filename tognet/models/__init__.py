@@ -5,8 +5,10 @@
     tognet/models/hammering.pt   TOG-Net for hammering
     tognet/models/<name>.json    each one's run summary (how it was trained, held-out metrics)
 
-They come from the ``quick`` self-supervision pipeline (``tognet pipeline --task both --preset quick``);
-the README says how to reproduce them.
+They come from the ``quick`` self-supervision pipeline (``tognet pipeline --task both --preset quick``):
+grasping and hammering from the run of 2026-12-02, sweeping from a sweeping-only run of 2026-12-04 after
+the preset's sweeping rounds changed (two-can collection, expert exploration, action Sigma from the data).
+Each JSON names its run; the README says how to reproduce them.
 """
 
 from __future__ import annotations

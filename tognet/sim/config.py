@@ -26,9 +26,8 @@ class PhysicsConfig(Config):
     integrator: str = doc(
         "Euler",
         "MuJoCo integrator: Euler (semi-implicit, joint damping implicit), implicit, implicitfast or RK4. "
-        "Euler takes ~21 % fewer instructions per episode than implicit, and its labels agree as well "
-        "with a 1 ms reference (measured: benchmarks/RESULTS.md, 2026-12-02, once the object's body "
-        "frame sat at its centre of mass; before, Euler's hammer blows were weaker than implicit's).",
+        "Euler: fewer instructions per episode than implicit with labels that agree as well with a 1 ms "
+        "reference (benchmarks/RESULTS.md, 'Why the config values are what they are').",
     )
     impratio: float = doc(
         10.0, "Frictional-to-normal impedance ratio (elliptic cones; firmer grip friction)."
@@ -36,14 +35,14 @@ class PhysicsConfig(Config):
     iterations: int = doc(30, "Maximum constraint-solver iterations per step.")
     noslip_iterations: int = doc(
         0,
-        "Noslip solver iterations (0 = off). Not needed: the pads' own stiff contact parameters hold the "
-        "grip without creep (measured: same scripted-check rates, faster).",
+        "Noslip solver iterations (0 = off). Off: the pads' own stiff contact parameters hold the grip "
+        "without creep, and the solver costs time (benchmarks/RESULTS.md).",
     )
     gravity: float = doc(9.81, "Gravity (m/s^2), along -z.")
     sleep: bool = doc(
         False,
-        "Let MuJoCo put resting bodies to sleep. Off: measured with it on, the T hammer held at the far end "
-        "of its handle drove the peg home in only 4 of 16 trials.",
+        "Let MuJoCo put resting bodies to sleep. Off: a sleeping prop or tool misses the first contacts of "
+        "an impact, and good grasps then fail their task (benchmarks/RESULTS.md).",
     )
 
 
@@ -115,9 +114,9 @@ class GripperConfig(Config):
         0.4,
         "Reflected inertia of each finger's drive (kg; a screw-driven jaw's motor reflects far more). It "
         "keeps the servo's damping stable when the force limit is reached: MuJoCo then leaves the damping "
-        "out of the implicit step, and a bare 30 g finger (kv dt / m = 13 at 2 ms) chattered between "
-        "+-finger_force every step, so grasps closed differently at each time step (measured: half the "
-        "grasps that lifted at dt 2 ms did not at 1 ms). With it kv dt / m < 1.",
+        "out of the implicit step, and a bare 30 g finger (kv dt / m = 13 at 2 ms) chatters between "
+        "+-finger_force every step, so grasps close differently at each time step. With it kv dt / m < 1 "
+        "(benchmarks/RESULTS.md).",
     )
     pad_friction: float = doc(1.0, "Sliding friction of the finger pads.")
     pad_torsional_friction: float = doc(0.02, "Torsional friction of the pads (m), condim 4.")

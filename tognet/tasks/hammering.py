@@ -56,8 +56,8 @@ class HammeringConfig(Config):
     peg_friction_impedance: float = doc(
         0.9999,
         "Impedance (solimpfriction) of the peg's dry friction. MuJoCo's friction is soft and creeps under a "
-        "push below the threshold: measured over 2 s at 50 % / 90 % of it, 4.8 / 8.7 mm at 0.99 (and 24 / "
-        "43 mm with MuJoCo's default solref), 0.05 / 0.09 mm at 0.9999.",
+        "push below the threshold; this makes the creep negligible, so only a blow moves the peg "
+        "(benchmarks/RESULTS.md).",
     )
     peg_size: float = doc(0.03, "Peg cross-section side (m), square.")
     peg_height: float = doc(0.045, "Height of the peg's axis above the table (m).")

@@ -53,9 +53,8 @@ class SweepingConfig(Config):
     stroke: float = doc(0.4, "Length of the straight sweep along world +y (m), as in the paper.")
     sweep_speed: float = doc(
         0.6,
-        "Gripper speed during the sweep (m/s). Not faster: a faster stroke flicks cans off with a badly "
-        "placed tool; the long-edge-middle grasp turned to a_phi = -pi/4 sweeps 5/25 at 0.6, 10/25 at 0.7, "
-        "13/25 at 0.8 m/s (short-end grasp ~100 % at all three); 0.8 saves only ~90 of ~1100 steps.",
+        "Gripper speed during the sweep (m/s). Not faster: a faster stroke flicks cans off the table with "
+        "a badly placed tool, so the grasp would matter less, and saves few steps (benchmarks/RESULTS.md).",
     )
     settle_time: float = doc(
         1.0,
