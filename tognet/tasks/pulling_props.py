@@ -214,6 +214,12 @@ class PullingProps(TaskProps):
 PULL_GRASPS = PullingProps.check_grasps
 
 
+def pull_bar_grasp(x: float) -> tuple[Any, ...]:
+    """A grasp across the L tool's long bar at ``x`` along it (0 = the hook's end), pulling as far_end."""
+    far = PULL_GRASPS["far_end"]
+    return ((x, far[0][1], far[0][2]), *far[1:])
+
+
 def pull_actions(
     sim: Any, grasp: Grasp, yaws: tuple[float, ...] = (-np.pi / 8, 0.0, np.pi / 8), in_hand: object = None
 ) -> list[NDArray[np.float64]]:
