@@ -14,8 +14,9 @@ Grasp orientation (phi versus phi + pi)
     (``nominal_yaw + a_phi``). At a_phi = 0 the gripper's +y axis points along world +x (away from the
     robot), so a tool reaching along the gripper's +y (across the jaws) reaches past the can; phi + pi puts
     it along -y, toward the robot, where no action in the box brings it back (a_phi is within +-pi/4).
-    A hook branching off toward the gripper's +x then lies toward world -y (a_y > 0 puts the tool beside the
-    can); the mirror grasp's hook lies toward +y and needs a_y < 0: the box holds both.
+    A hook branching off toward the gripper's +x then lies toward world -y, and the nominal offset puts the
+    tool's bar 6 cm to +y of the can, the hook across the can's line; a hook branching off toward the
+    gripper's -x lies toward +y and needs the bar on the other side (a_y about -0.12): the box holds both.
 
 Randomizations
     The can's position (``can_x``, ``can_y``) and mass (``can_mass``).
@@ -80,10 +81,10 @@ class PullingConfig(Config):
         -np.pi / 2, "Gripper start yaw at a_phi = 0 (rad): its +y axis (across the jaws) along world +x."
     )
     action_low: tuple[float, float, float, float] = doc(
-        (-0.14, -0.12, -0.05, -np.pi / 4), "Lower corner of the action box (a_x, a_y, a_z m; a_phi rad)."
+        (-0.14, -0.14, -0.05, -np.pi / 4), "Lower corner of the action box (a_x, a_y, a_z m; a_phi rad)."
     )
     action_high: tuple[float, float, float, float] = doc(
-        (0.06, 0.12, 0.06, np.pi / 4),
+        (0.06, 0.14, 0.06, np.pi / 4),
         "Upper corner of the action box. a_x at most 0.06: the gripper stays 10 cm short of the can's "
         "centre, so only a tool reaching about 17 cm past the grasp can hook it.",
     )
