@@ -70,3 +70,22 @@ def test_success_rule(values, touched, moving, expected):
 def test_the_check_grasps_differ_only_in_where_they_hold():
     far, near = PULL_GRASPS["far_end"], PULL_GRASPS["near_hook"]
     assert far[1:] == near[1:] and far[0][0] > near[0][0]
+
+
+def test_the_oracle_finds_a_pull_for_the_far_end_grasp_only(tools):
+    from tognet.objects.handmade import grasp_on_object
+    from tognet.sim import Simulator
+    from tognet.tasks.pulling_props import pull_actions
+
+    sim = Simulator(SimConfig(), "pulling", tools["l_tool"])
+    for seed in (0, 1):
+        sim.reset(seed)
+        pos, rot = sim.object_pose()
+        found = {}
+        for name in ("far_end", "near_hook"):
+            grasp = grasp_on_object(pos, rot, *PULL_GRASPS[name][:2])
+            actions = pull_actions(sim, grasp)
+            low, high = sim.task.action_low, sim.task.action_high
+            assert all(np.all(a >= low) and np.all(a <= high) for a in actions)
+            found[name] = any(sim.execute(grasp, a, seed).task_success for a in actions)
+        assert found == {"far_end": True, "near_hook": False}
