@@ -48,8 +48,8 @@ def test_layout_is_seeded_and_out_of_reach():
         layout = task.sample_layout(np.random.default_rng(seed))
         ref = task.reference(layout)
         start, _ = task.start_pose(ref, task.action_high)
-        # Even at the box's far corner the gripper stays short of the can by more than its radius.
-        assert start[0] < ref[0] - c.can_radius - 0.05
+        # Even at the box's far corner the gripper's centre stays 2 cm or more short of the can.
+        assert start[0] < ref[0] - c.can_radius - 0.02
         assert c.target_x[1] < c.can_x[0] - c.can_radius  # the target region is nearer than any start
 
 

@@ -4,7 +4,7 @@ Task description
     A can (an upright cylinder) stands on the far side of the manipulation half of the table (large x),
     beyond where the gripper may go: the gripper's start pose is relative to the reference point (the can's
     centre at mid-height), and the action box keeps it at least ``-(nominal_offset[0] + action_high[0])``
-    (10 cm) short of the can's centre in x. The gripper, holding the tool, goes to the start pose
+    (6 cm) short of the can's centre in x. The gripper, holding the tool, goes to the start pose
     a = (a_x, a_y, a_z, a_phi), then moves ``pull`` in a straight line along world -x, toward the robot.
     The tool must reach past the can and catch it on a part facing the robot (a hook): a long lever held
     by the end away from the hook does it; a tool held near its hook cannot reach behind the can.
@@ -81,12 +81,14 @@ class PullingConfig(Config):
         -np.pi / 2, "Gripper start yaw at a_phi = 0 (rad): its +y axis (across the jaws) along world +x."
     )
     action_low: tuple[float, float, float, float] = doc(
-        (-0.14, -0.14, -0.05, -np.pi / 4), "Lower corner of the action box (a_x, a_y, a_z m; a_phi rad)."
+        (-0.1, -0.14, -0.05, -np.pi / 4), "Lower corner of the action box (a_x, a_y, a_z m; a_phi rad)."
     )
     action_high: tuple[float, float, float, float] = doc(
-        (0.06, 0.14, 0.06, np.pi / 4),
-        "Upper corner of the action box. a_x at most 0.06: the gripper stays 10 cm short of the can's "
-        "centre, so only a tool reaching about 17 cm past the grasp can hook it.",
+        (0.1, 0.14, 0.06, np.pi / 4),
+        "Upper corner of the action box. a_x at most 0.1: the gripper stays 6 cm short of the can's centre, "
+        "so only a tool reaching about 13 cm past the grasp can hook it (the L tool held 15 cm or more from "
+        "its hook's end; 10 cm is too near). At 0.06 generated tools were feasible less often (oracle: 3/12 "
+        "and 2/12 objects against 5/12 and 3/12, benchmarks/RESULTS.md).",
     )
 
 
