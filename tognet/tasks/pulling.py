@@ -87,8 +87,7 @@ class PullingConfig(Config):
         (0.1, 0.14, 0.06, np.pi / 4),
         "Upper corner of the action box. a_x at most 0.1: the gripper stays 6 cm short of the can's centre, "
         "so only a tool reaching about 13 cm past the grasp can hook it (the L tool held 15 cm or more from "
-        "its hook's end; 10 cm is too near). At 0.06 generated tools were feasible less often (oracle: 3/12 "
-        "and 2/12 objects against 5/12 and 3/12, benchmarks/RESULTS.md).",
+        "its hook's end; 10 cm is too near); a shorter reach leaves fewer generated tools able to pull.",
     )
 
 
