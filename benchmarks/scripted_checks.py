@@ -6,6 +6,7 @@ Hammering: T hammer grasped at the far end of its handle (hand-computed action) 
 action inside the action box, and, as a diagnostic, the action it would need with the yaw unclipped),
 and the far-end grasp with a slow wrist (1.5 rad/s) to show a quasi-static push does not drive the peg.
 Sweeping: long L tool grasped at its short end vs in the middle of its long edge, two cans.
+Pulling: the same L tool grasped near the end of its long bar (the short bar the hook) vs near the hook.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from tognet.config import ConfigError
 from tognet.sim import SimConfig
 from tognet.sim.scripted_checks import run_check
 from tognet.tasks.hammering_props import hammer_handle_grasp
+from tognet.tasks.pulling_props import pull_bar_grasp
 
 
 def _load_config(parser: argparse.ArgumentParser, path: Path | None) -> SimConfig:
@@ -36,7 +38,7 @@ def main() -> None:
     parser.add_argument(
         "--diagnostics",
         action="store_true",
-        help="also grasp positions along the handle, "
+        help="also grasp positions along the hammer's handle and the L tool's long bar, "
         "and the long-edge sweep turned to the action box's yaw limits (half the seeds)",
     )
     parser.add_argument("--config", type=Path, help="SimConfig JSON to check instead of the defaults")
@@ -50,6 +52,8 @@ def main() -> None:
         ("hammering", "far_end", slow, True, "slow wrist 1.5 rad/s: push must fail"),
         ("sweeping", "short_end", cfg, True, ">= 90%"),
         ("sweeping", "long_middle", cfg, True, "far less often"),
+        ("pulling", "far_end", cfg, True, ">= 90%"),
+        ("pulling", "near_hook", cfg, True, "fails in most"),
     ]
     for task, grasp, config, clip, expect in checks:
         t0 = time.perf_counter()
@@ -67,6 +71,9 @@ def main() -> None:
                 "sweeping", "long_middle", seeds, cfg, yaw=yaw, label=f"sweeping/long_middle a_phi={yaw:+.2f}"
             )
             print(f"{r.line()}  (diagnostic: turned as far as the action box allows)", flush=True)
+        for x in (0.1, 0.15, 0.2, 0.24):
+            r = run_check("pulling", pull_bar_grasp(x), seeds, cfg, label=f"pulling/bar grasp at x={x}")
+            print(f"{r.line()}  (diagnostic: where along the long bar)", flush=True)
 
 
 if __name__ == "__main__":

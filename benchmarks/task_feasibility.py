@@ -23,8 +23,8 @@ from tognet.geometry import Grasp
 from tognet.grasping import AntipodalConfig, NMSConfig, nms, prepare_depth, sample_antipodal
 from tognet.objects.record import load_catalog
 from tognet.sim import SimConfig, Simulator
-from tognet.tasks.hammering_props import hammer_actions
-from tognet.tasks.sweeping_props import sweep_actions
+from tognet.sim.oracle import task_actions
+from tognet.tasks import TASK_NAMES
 
 
 def run(task: str, records: list, cfg: SimConfig, modes: int, randoms: int, budget: float) -> dict:
@@ -61,11 +61,7 @@ def run(task: str, records: list, cfg: SimConfig, modes: int, randoms: int, budg
                     oracle.append(0)  # the grasp itself fails (usually): counted once
                     continue
                 in_hand = probe.info["in_hand"]
-                acts = (
-                    hammer_actions(sim, grasp, in_hand=in_hand)
-                    if task == "hammering"
-                    else sweep_actions(sim, grasp, in_hand=in_hand)
-                )
+                acts = task_actions(sim, grasp, in_hand=in_hand)  # the task's oracle, default options
                 for a in acts:
                     seed += 1
                     r = sim.execute(grasp, a, seed)
@@ -91,7 +87,7 @@ def run(task: str, records: list, cfg: SimConfig, modes: int, randoms: int, budg
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--objects", nargs="+", required=True, help="object set folders (with catalog)")
-    p.add_argument("--tasks", nargs="+", default=["hammering", "sweeping"], help="tasks to measure")
+    p.add_argument("--tasks", nargs="+", default=list(TASK_NAMES), help="tasks to measure")
     p.add_argument("--modes", type=int, default=4, help="NMS modes tried per object")
     p.add_argument(
         "--randoms",

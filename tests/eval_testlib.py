@@ -5,7 +5,7 @@ from pathlib import Path
 
 
 def tiny_models(root: Path) -> dict[str, Path]:
-    """``{"grasping": best.pt, "sweeping": ..., "hammering": ...}`` trained in ``root`` in a few seconds."""
+    """``{"grasping": best.pt, <task>: best.pt}`` for every registered task, trained in a few seconds."""
     from tognet.data.synthetic import write_synthetic_dataset
     from tognet.model.config import ArchConfig, TrainConfig
     from tognet.model.train import train
@@ -14,7 +14,9 @@ def tiny_models(root: Path) -> dict[str, Path]:
                       z_features=8, head_hidden=16)
     cfg = TrainConfig(arch=arch, num_threads=1, epochs=1, batch_size=32, val_fraction=0.25, seed=0)
     out = {}
-    for task in ("grasping", "sweeping", "hammering"):
+    from tognet.tasks import TASK_NAMES
+
+    for task in ("grasping", *TASK_NAMES):
         data = write_synthetic_dataset(root / f"data-{task}", task=task, n=96, shard_size=96, seed=1,
                                        n_objects=8)
         out[task] = train([data], task, root / task, cfg, progress=False, log=lambda s: None).best_path

@@ -5,9 +5,18 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-import tognet.envs  # noqa: F401  (registers the environments)
+import tognet.envs  # registers the environments
 
-ENV_IDS = ["tognet/Sweeping-v0", "tognet/Hammering-v0", "tognet/Grasping-v0"]
+ENV_IDS = list(tognet.envs.ENV_IDS.values())
+
+
+def test_every_registered_task_has_an_env():
+    from tognet.tasks import TASK_NAMES
+
+    assert set(tognet.envs.ENV_IDS) == {*TASK_NAMES, "grasping"}
+    assert tognet.envs.ENV_IDS["pulling"] == "tognet/Pulling-v0"
+    for env_id in ENV_IDS:
+        assert env_id in gym.registry
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)

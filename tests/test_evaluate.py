@@ -16,9 +16,10 @@ from tognet.evaluate import EvalConfig, EvalError, newcombe_paired, paired_diffe
 from tognet.objects.record import load_catalog
 from tognet.planning import METHODS, OracleConfig, PlanConfig
 from tognet.sim import Simulator
+from tognet.tasks import TASK_NAMES
 
 CONFIG = EvalConfig(scenes_per_job=1, plan=PlanConfig(oracle=OracleConfig(grasps=2, seeds=1, max_trials=12)))
-TASKS = ["sweeping", "hammering"]
+TASKS = list(TASK_NAMES)  # every registered task
 EPISODES = 2
 
 

@@ -1,5 +1,5 @@
 """Every method's planner (the paper's baselines, TOG-Net and the Oracle) returns a plan the simulator can
-run, on a PG-Primitive, a PG-Complex and a realistic test object, for both tasks."""
+run, on a PG-Primitive, a PG-Complex and a realistic test object, for every task."""
 
 import numpy as np
 import pytest
@@ -8,7 +8,7 @@ from eval_testlib import tiny_models
 from tognet.objects import generate_set
 from tognet.planning import METHODS, OracleConfig, PlanConfig, check_methods, make_planner
 from tognet.sim import SimConfig, Simulator
-from tognet.tasks import FailureReason
+from tognet.tasks import TASK_NAMES, FailureReason
 
 FAST = PlanConfig(oracle=OracleConfig(grasps=2, seeds=1, max_trials=12))
 
@@ -28,7 +28,7 @@ def objects(tmp_path_factory):
     return {kind: generate_set(kind, "test", 1, root / kind)[0] for kind in kinds}
 
 
-@pytest.mark.parametrize("task", ["sweeping", "hammering"])
+@pytest.mark.parametrize("task", TASK_NAMES)
 @pytest.mark.parametrize("kind", ["primitive", "complex", "realistic"])
 def test_every_planner_returns_a_plan_the_simulator_runs(models, objects, kind, task):
     sim = Simulator(SimConfig(), task, objects[kind])

@@ -7,6 +7,7 @@ import pytest
 from typer.testing import CliRunner
 
 from tognet.cli import app
+from tognet.tasks import TASK_NAMES
 
 
 def test_sim_command_runs_an_episode_and_writes_what_plan_reads(tmp_path):
@@ -27,7 +28,7 @@ def test_sim_command_runs_an_episode_and_writes_what_plan_reads(tmp_path):
     assert 0.6 < pose[2, 3] < 0.8
 
 
-@pytest.mark.parametrize("task", ["hammering", "sweeping"])
+@pytest.mark.parametrize("task", TASK_NAMES)
 def test_a_first_run_with_default_arguments_shows_a_success_and_what_it_did(task):
     args = ["sim"] if task == "hammering" else ["sim", "--task", task]  # hammering is the default task
     result = CliRunner().invoke(app, args)

@@ -44,13 +44,19 @@ def _saved_sim_config(model: str) -> dict:
 def test_a_sim_config_saved_in_the_old_layout_loads_and_round_trips(model, tmp_path):
     saved = _saved_sim_config(model)
     cfg = SimConfig.from_dict(saved)
-    assert cfg.to_dict() == saved  # the same sections, keys and values, in the same order
-    assert list(cfg.to_dict()) == list(saved)
+    # The same sections, keys and values, in the same order; a task registered after the model was saved
+    # (e.g. pulling) adds its section with its defaults, after the others.
+    added = [name for name in TASK_NAMES if name not in saved]
+    assert {k: v for k, v in cfg.to_dict().items() if k in saved} == saved
+    assert list(cfg.to_dict()) == [*saved, *added]
+    for name in added:
+        assert cfg.task_config(name) == task_config_class(name)()
     path = cfg.save(tmp_path / "sim.json")
     again = SimConfig.load(path)
     assert again == cfg
     on_disk = json.loads(path.read_text())
-    assert on_disk.pop("config_type") == "SimConfig" and on_disk == saved
+    assert on_disk.pop("config_type") == "SimConfig"
+    assert {k: v for k, v in on_disk.items() if k in saved} == saved
     # A changed task section travels the same way.
     for name in TASK_NAMES:
         section = cfg.task_config(name)

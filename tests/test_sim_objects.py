@@ -5,6 +5,7 @@ import pytest
 
 from tognet.objects.generate import generate_set
 from tognet.sim import FailureReason, SimConfig, Simulator
+from tognet.tasks import TASK_NAMES
 
 KINDS = [("primitive", "train"), ("complex", "train"), ("realistic", "test")]
 
@@ -17,7 +18,7 @@ def objects(tmp_path_factory):
     return out
 
 
-@pytest.mark.parametrize("task", ["sweeping", "hammering", "grasping"])
+@pytest.mark.parametrize("task", [*TASK_NAMES, "grasping"])
 @pytest.mark.parametrize("kind", [k for k, _ in KINDS])
 def test_task_runs_on_generated_objects(objects, kind, task):
     for record in objects[kind]:

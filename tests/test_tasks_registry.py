@@ -7,7 +7,7 @@ from tognet.tasks import TASK_NAMES, FailureReason, TaskOutcome, get_task
 
 
 def test_registry_names_and_unknown_task():
-    assert set(TASK_NAMES) == {"sweeping", "hammering"}
+    assert set(TASK_NAMES) == {"sweeping", "hammering", "pulling"}
     for name in TASK_NAMES:
         assert get_task(name).name == name
     with pytest.raises(ValueError, match="unknown task 'sawing'"):

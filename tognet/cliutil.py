@@ -18,6 +18,37 @@ F = TypeVar("F", bound=Callable[..., Any])
 USER_ERRORS: tuple[type[BaseException], ...] = (TognetError, ConfigError, FileNotFoundError, ValueError)
 
 
+#: ``--task`` of the commands that run several tasks: a task's name, ``all`` (every registered task) or
+#: ``both`` (the paper's two, sweeping and hammering, as before a third task was registered).
+TASKS_HELP = (
+    "A task's name (or several, comma-separated), 'all' (every registered task), or 'both' (the paper's two)."
+)
+
+
+def task_list(spec: str) -> list[str]:
+    """The tasks ``--task`` names (see :data:`TASKS_HELP`); an unknown name raises ValueError."""
+    from tognet.tasks import TASK_NAMES
+
+    if spec == "all":
+        return list(TASK_NAMES)
+    names = ["sweeping", "hammering"] if spec == "both" else [n.strip() for n in spec.split(",") if n.strip()]
+    for name in names:
+        if name not in TASK_NAMES:
+            raise ValueError(f"unknown task '{name}'; known tasks: {', '.join(TASK_NAMES)} (or all, both)")
+    return names
+
+
+def task_models(pairs: list[str]) -> dict[str, Path]:
+    """``--task-model NAME=PATH`` options as {task: checkpoint}."""
+    out: dict[str, Path] = {}
+    for pair in pairs:
+        name, sep, path = pair.partition("=")
+        if not sep or not name or not path:
+            raise ValueError(f"--task-model takes NAME=PATH, got '{pair}'")
+        out[task_list(name)[0]] = Path(path)
+    return out
+
+
 def user_errors(func: F) -> F:
     """Decorator for a command: print ``error: <message>`` and exit 2 on a user-facing error."""
 

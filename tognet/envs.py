@@ -32,13 +32,10 @@ from tognet.geometry import Grasp
 from tognet.objects.handmade import make_test_tools
 from tognet.objects.record import ObjectRecord, load_catalog
 from tognet.sim import Observation, SimConfig, Simulator
-from tognet.tasks import get_task
+from tognet.tasks import TASK_NAMES, get_task
 
-ENV_IDS = {
-    "sweeping": "tognet/Sweeping-v0",
-    "hammering": "tognet/Hammering-v0",
-    "grasping": "tognet/Grasping-v0",
-}
+#: Gymnasium id of each registered task's env (``tognet/<Task>-v0``) and of grasping only.
+ENV_IDS = {name: f"tognet/{name.capitalize()}-v0" for name in (*TASK_NAMES, "grasping")}
 
 
 class TognetEnv(gym.Env):

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from tognet.cliutil import out_folder, user_errors
+from tognet.cliutil import TASKS_HELP, out_folder, task_list, user_errors
 
 WORKERS_HELP = "Local worker processes (default: the number of cores)."
 RAY_HELP = "Run the jobs on a local Ray instance (pip install 'tognet\\[ray]')."
@@ -15,7 +15,7 @@ RAY_ADDRESS_HELP = "Run the jobs on this Ray cluster ('auto', or 'ray://HOST:100
 
 @user_errors
 def collect_cmd(
-    task: str = typer.Option(..., "--task", help="sweeping, hammering, or grasping (grasp only)."),
+    task: str = typer.Option(..., "--task", help="A registered task or grasping (grasp only)."),
     objects: list[Path] = typer.Option(..., "--objects", help="Object set folder (repeat for several)."),
     out: Path = typer.Option(..., "--out", help="Dataset folder to write (resumes what is already there)."),
     episodes: int = typer.Option(1000, "--episodes", min=1, help="Trials to run (rounded up to whole jobs)."),
@@ -64,7 +64,7 @@ def collect_cmd(
 
 @user_errors
 def pipeline_cmd(
-    task: str = typer.Option(..., "--task", help="sweeping, hammering or both."),
+    task: str = typer.Option(..., "--task", help=TASKS_HELP),
     preset: str = typer.Option("quick", "--preset", help="ci, quick, paper, or a PipelineConfig JSON file."),
     out: Path = typer.Option(..., "--out", help="Run folder (objects, data, models, summary)."),
     workers: int | None = typer.Option(None, "--workers", min=0, help=WORKERS_HELP),
@@ -79,7 +79,7 @@ def pipeline_cmd(
     from tognet.collect.config import load_preset
     from tognet.collect.pipeline import run_pipeline
 
-    tasks = ["sweeping", "hammering"] if task == "both" else [task]
+    tasks = task_list(task)
     cfg = load_preset(preset)
     run_pipeline(cfg, tasks, out, workers=workers, ray=ray, ray_address=ray_address, resume=resume,
                  progress=progress, log=typer.echo)

@@ -6,13 +6,13 @@ from pathlib import Path
 
 import typer
 
-from tognet.cliutil import user_errors
+from tognet.cliutil import TASKS_HELP, task_list, task_models, user_errors
 from tognet.collect.cli import RAY_ADDRESS_HELP, RAY_HELP, WORKERS_HELP
 
 
 @user_errors
 def evaluate_cmd(
-    task: str = typer.Option(..., "--task", help="sweeping, hammering or both."),
+    task: str = typer.Option(..., "--task", help=TASKS_HELP),
     methods: str = typer.Option("all", "--methods", help="'all' or a comma-separated list of: "
                                 "Antipodal+Random, Task_Agn+Random, Task_Agn+Trained, Task_Ori+Random, "
                                 "TOG-Net, Oracle."),
@@ -29,6 +29,8 @@ def evaluate_cmd(
                                                "(default: the shipped one)."),
     hammering_model: Path | None = typer.Option(None, "--hammering-model", help="Hammering TOG-Net "
                                                 "checkpoint (default: the shipped one)."),
+    task_model: list[str] = typer.Option([], "--task-model", metavar="NAME=PATH", help="A task's TOG-Net "
+                                         "checkpoint, for any registered task (repeat for several)."),
     test_objects: int | None = typer.Option(None, "--test-objects", min=1, help="Test objects per category "
                                             "at most (default: a new one per job)."),
     scenes_per_job: int | None = typer.Option(None, "--scenes-per-job", min=1, help="Scenes per job (one "
@@ -50,13 +52,14 @@ def evaluate_cmd(
     from tognet.evaluate.config import EvalConfig
     from tognet.evaluate.harness import run_evaluation
 
-    tasks = ["sweeping", "hammering"] if task == "both" else [task]
+    tasks = task_list(task)
+    models = {"sweeping": sweeping_model, "hammering": hammering_model, **task_models(task_model)}
     cfg = EvalConfig.load(config) if config else EvalConfig()
     if scenes_per_job is not None:
         cfg = cfg.replace(scenes_per_job=scenes_per_job)
     run_evaluation(out, tasks, methods, categories=category, object_dirs=objects, episodes=episodes,
                    test_object_count=test_objects, grasp_model=grasp_model,
-                   task_models={"sweeping": sweeping_model, "hammering": hammering_model}, config=cfg,
+                   task_models=models, config=cfg,
                    workers=workers, ray=ray, ray_address=ray_address, resume=resume, progress=progress,
                    run_dir=run, animations=animations, log=typer.echo)
     typer.echo(f"results: {out / 'results.json'}")

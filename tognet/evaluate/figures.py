@@ -113,17 +113,17 @@ def qualitative_figure(objects: Sequence[ObjectRecord], models: dict[str, Any], 
                        path: Path, seed: int = 0) -> Path | None:
     """For each object, one depth image (the object alone on the table) with the task-agnostic grasp (CEM on
     the grasp-only model's Q_G) and each task's TOG-Net grasp (CEM on its Q_T) drawn on it; the same
-    antipodal candidates start every search. ``models``: loaded predictors by name (``grasping``,
-    ``sweeping``, ``hammering``; those present are drawn)."""
+    antipodal candidates start every search. ``models``: loaded predictors by name (``grasping`` and
+    the registered tasks'; those present are drawn)."""
     from tognet.collect.policies import CEMGrasp, SceneView
     from tognet.grasping.antipodal import sample_antipodal
     from tognet.grasping.depth import prepare_depth
     from tognet.grasping.draw import depth_to_rgb, jaw_endpoints
     from tognet.sim import SimulationError, Simulator
+    from tognet.tasks import TASK_NAMES
 
     columns = [(n, label, "grasp" if n == "grasping" else "task") for n, label in
-               (("grasping", "task-agnostic (Q_G)"), ("sweeping", "sweeping (Q_T)"),
-                ("hammering", "hammering (Q_T)")) if n in models]
+               (("grasping", "task-agnostic (Q_G)"), *((t, f"{t} (Q_T)") for t in TASK_NAMES)) if n in models]
     if not columns or not objects:
         return None
     crop = next((m.crop_config for m in models.values() if getattr(m, "crop_config", None) is not None), None)
@@ -158,7 +158,8 @@ def qualitative_figure(objects: Sequence[ObjectRecord], models: dict[str, Any], 
                                                                       2.45 * n_rows), squeeze=False)
     for ax in axes.flat:
         ax.axis("off")
-    colours = {"grasping": "#3182bd", "sweeping": "#d94801", "hammering": "#31a354"}
+    palette = ("#3182bd", "#d94801", "#31a354", "#756bb1", "#e7298a", "#66a61e")  # grasping, then tasks
+    colours = {n: palette[i % len(palette)] for i, n in enumerate(("grasping", *TASK_NAMES))}
     for k, (obj, obs, cands, grasps) in enumerate(rows):
         r, first = divmod(k, per_row)
         rgb = depth_to_rgb(obs.depth)

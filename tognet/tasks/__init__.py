@@ -13,6 +13,8 @@ from tognet.tasks.base import FailureReason, Motion, Task, TaskOutcome
 from tognet.tasks.hammering import Hammering, HammeringConfig
 from tognet.tasks.hammering_props import HammeringProps
 from tognet.tasks.props import TaskProps
+from tognet.tasks.pulling import Pulling, PullingConfig
+from tognet.tasks.pulling_props import PullingProps
 from tognet.tasks.sweeping import Sweeping, SweepingConfig
 from tognet.tasks.sweeping_props import SweepingProps
 
@@ -30,6 +32,7 @@ class TaskEntry:
 _REGISTRY: dict[str, TaskEntry] = {
     "sweeping": TaskEntry(Sweeping, SweepingConfig, SweepingProps),
     "hammering": TaskEntry(Hammering, HammeringConfig, HammeringProps),
+    "pulling": TaskEntry(Pulling, PullingConfig, PullingProps),
 }
 TASK_NAMES: tuple[str, ...] = tuple(_REGISTRY)
 #: The task a command runs when none is named.
