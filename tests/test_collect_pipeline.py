@@ -85,7 +85,7 @@ def test_presets_load_and_cli_errors_are_one_line(tmp_path):
     out = str(tmp_path / "o")
     res = runner.invoke(app, ["pipeline", "--task", "sweeping", "--preset", str(bad), "--out", out])
     assert res.exit_code == 2 and "unknown key 'roundz'" in res.output and "Traceback" not in res.output
-    res = runner.invoke(app, ["pipeline", "--task", "pulling", "--preset", "ci", "--out", out])
+    res = runner.invoke(app, ["pipeline", "--task", "pouring", "--preset", "ci", "--out", out])
     assert res.exit_code == 2 and "unknown task" in res.output
     res = runner.invoke(app, ["collect", "--task", "sweeping", "--objects", str(tmp_path / "nope"),
                               "--out", str(tmp_path / "d"), "--policy", "epsilon_greedy"])
