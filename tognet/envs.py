@@ -2,8 +2,8 @@
 
 Registered on ``import tognet.envs``:
 
-- ``tognet/Sweeping-v0`` and ``tognet/Hammering-v0``: action = grasp (x, y, z, phi) + motion (a_x, a_y, a_z,
-  a_phi), 8 numbers; reward = 1.0 when the task succeeds.
+- ``tognet/<Task>-v0`` for every registered task (Sweeping, Hammering, Pulling): action = grasp (x, y, z,
+  phi) + motion (a_x, a_y, a_z, a_phi), 8 numbers; reward = 1.0 when the task succeeds.
 - ``tognet/Grasping-v0``: action = grasp only (4 numbers); reward = 1.0 when the tool is lifted clear.
 
 Actions are float32. With ``normalize_actions=True`` the action box is [-1, 1] in every dimension and is
