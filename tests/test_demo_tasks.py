@@ -6,15 +6,18 @@ import imageio.v3 as iio
 from PIL import Image
 
 from tognet.demo.tasks import run_task_demo
+from tognet.tasks import TASK_NAMES
 
 
 def test_task_demo_prints_check_rates_and_writes_pictures(tmp_path, capsys):
     written = run_task_demo(tmp_path, seeds=2, gif=True)
     out = capsys.readouterr().out
-    rates = re.findall(r"task success (\d+)/(\d+)", out)
-    assert len(rates) == 4 and all(int(n) == 2 for _, n in rates)
-    far_end, head, short_end, long_middle = (int(k) for k, _ in rates)
-    assert far_end > head and short_end > long_middle
+    rates = re.findall(r"^  (\w+) .* task success (\d+)/(\d+)$", out, re.MULTILINE)
+    # Every registered task's two check grasps, the one that should work first: it beats the other.
+    assert [task for task, _, _ in rates] == [task for task in TASK_NAMES for _ in range(2)]
+    assert all(int(n) == 2 for _, _, n in rates)
+    for good, bad in zip(rates[::2], rates[1::2], strict=True):
+        assert int(good[1]) > int(bad[1]), (good, bad)
     png, gif = written
     assert Image.open(png).size[0] >= 512
     frames = iio.imread(gif, index=None)

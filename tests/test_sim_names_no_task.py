@@ -40,7 +40,7 @@ def _saved_sim_config(model: str) -> dict:
     return json.loads((MODELS / f"{model}.json").read_text())["preset"]["collect"]["sim"]
 
 
-@pytest.mark.parametrize("model", ["hammering", "sweeping"])
+@pytest.mark.parametrize("model", ["hammering", "sweeping", "pulling"])
 def test_a_sim_config_saved_in_the_old_layout_loads_and_round_trips(model, tmp_path):
     saved = _saved_sim_config(model)
     cfg = SimConfig.from_dict(saved)

@@ -1,8 +1,8 @@
 """The task part of ``tognet demo``: does the grasp matter, and what does an episode look like?
 
-Runs the scripted checks with a few seeds (hand-made T hammer grasped at the far end of its handle vs
-by its head; L tool grasped at its short end vs in the middle of its long edge), draws the antipodal
-candidates on one simulated depth image, and animates one hammering episode.
+Runs every registered task's scripted checks with a few seeds (e.g. the hand-made T hammer grasped at
+the far end of its handle vs by its head), draws the antipodal candidates on one simulated depth image,
+and animates one hammering episode.
 """
 
 from __future__ import annotations
@@ -12,12 +12,16 @@ from pathlib import Path
 import numpy as np
 import typer
 
-CHECKS = (
-    ("hammering", "far_end", "T hammer held at the far end of its handle"),
-    ("hammering", "head", "T hammer held by its head"),
-    ("sweeping", "short_end", "L tool held at its short end"),
-    ("sweeping", "long_middle", "L tool held in the middle of its long edge"),
-)
+
+def checks() -> list[tuple[str, str, str]]:
+    """(task, grasp name, what the grasp is) for every registered task's scripted-check grasps."""
+    from tognet.tasks import TASK_NAMES, get_props, get_task
+
+    rows = []
+    for task in TASK_NAMES:
+        props = get_props(get_task(task))
+        rows += [(task, name, props.check_texts.get(name, name)) for name in props.check_grasps]
+    return rows
 
 
 def run_task_demo(out: Path, seeds: int = 5, gif: bool = True) -> list[Path]:
@@ -31,9 +35,9 @@ def run_task_demo(out: Path, seeds: int = 5, gif: bool = True) -> list[Path]:
 
     written: list[Path] = []
     typer.echo(f"does the grasp matter? scripted checks, {seeds} scenes each (hand-computed actions):")
-    for task, grasp, text in CHECKS:
+    for task, grasp, text in checks():
         result = run_check(task, grasp, range(seeds))
-        typer.echo(f"  {task:9s} {text:45s} task success {result.task_successes}/{result.trials}")
+        typer.echo(f"  {task:9s} {text:50s} task success {result.task_successes}/{result.trials}")
 
     tools = make_test_tools(out / "tools")
     sim = Simulator(SimConfig(), "hammering", tools["t_hammer"])

@@ -3,11 +3,13 @@
     tognet/models/grasping.pt    the grasp-only model (the task-agnostic baselines rank grasps with it)
     tognet/models/sweeping.pt    TOG-Net for sweeping (Q_G, Q_T|G, action mean)
     tognet/models/hammering.pt   TOG-Net for hammering
+    tognet/models/pulling.pt     TOG-Net for pulling (the plug-in third task)
     tognet/models/<name>.json    each one's run summary (how it was trained, held-out metrics)
 
 They come from the ``quick`` self-supervision pipeline (``tognet pipeline --task both --preset quick``):
 grasping and hammering from the run of 2026-12-02, sweeping from a sweeping-only run of 2026-12-04 after
-the preset's sweeping rounds changed (two-can collection, expert exploration, action Sigma from the data).
+the preset's sweeping rounds changed (two-can collection, expert exploration, action Sigma from the data),
+pulling from a pulling-only run of 2026-12-04 (``tognet pipeline --task pulling --preset quick``).
 Each JSON names its run; the README says how to reproduce them.
 """
 
@@ -18,7 +20,7 @@ from pathlib import Path
 from tognet.errors import TognetError
 
 MODELS_DIR = Path(__file__).resolve().parent
-NAMES = ("grasping", "sweeping", "hammering")
+NAMES = ("grasping", "sweeping", "hammering", "pulling")
 
 
 def default_checkpoint(name: str) -> Path:

@@ -30,6 +30,10 @@ class HammeringProps(TaskProps):
 
     check_object = "t_hammer"
     demo_grasp = "far_end"
+    check_texts = {
+        "far_end": "T hammer held at the far end of its handle",
+        "head": "T hammer held by its head",
+    }
     outcome_keys = ("peg_out",)
     config: HammeringConfig
 

@@ -93,6 +93,8 @@ class TaskProps:
     check_object: str = ""
     #: Scripted-check grasps on it, by name: (grasp point, jaw axis, ...) in the object's frame.
     check_grasps: Mapping[str, tuple[Any, ...]] = {}
+    #: What each grasp of ``check_grasps`` is, in words (what the demo prints beside its result).
+    check_texts: Mapping[str, str] = {}
     #: The grasp of ``check_grasps`` known to succeed (what a demo shows first).
     demo_grasp: str = ""
     #: Outcome values (:meth:`outcome`) the scripted checks report per trial.

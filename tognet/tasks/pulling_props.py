@@ -36,6 +36,10 @@ class PullingProps(TaskProps):
 
     check_object = "l_tool"
     demo_grasp = "far_end"
+    check_texts = {
+        "far_end": "L tool held at the end of its long bar (hook far)",
+        "near_hook": "L tool held on its long bar near the hook",
+    }
     outcome_keys = ("can_in_target", "can_xy", "can_tilt")
     config: PullingConfig
 

@@ -39,6 +39,10 @@ class SweepingProps(TaskProps):
     can_hold = True
     check_object = "l_tool"
     demo_grasp = "short_end"
+    check_texts = {
+        "short_end": "L tool held at its short end",
+        "long_middle": "L tool held in the middle of its long edge",
+    }
     outcome_keys = ("cans_on_ground",)
     config: SweepingConfig
 
