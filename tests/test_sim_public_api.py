@@ -17,6 +17,13 @@ def test_scene_and_vertices_are_public_and_read_only(tools):
     with pytest.raises(TypeError):
         scene["seed"] = 3  # type: ignore[index]
     assert sim.vertices.shape[1] == 3 and len(sim.vertices) >= 8
+    # The T hammer's collision pieces (handle and head at least), each a convex hull of its own vertices.
+    pieces = np.split(sim.vertices, np.cumsum(sim.vertex_pieces)[:-1])
+    assert sum(sim.vertex_pieces) == len(sim.vertices) and len(pieces) >= 2
+    assert all(len(p) >= 4 for p in pieces)
+    extents = [np.ptp(p, axis=0) for p in pieces]
+    assert max(e.max() for e in extents) < np.ptp(sim.vertices, axis=0).max() + 1e-9
+    assert min(e.max() for e in extents) < np.ptp(sim.vertices, axis=0).max()  # no piece is the whole tool
 
 
 def test_recording_attaches_the_recorder_for_a_block_only(tools):

@@ -87,5 +87,25 @@ def test_the_oracle_finds_a_pull_for_the_far_end_grasp_only(tools):
             actions = pull_actions(sim, grasp)
             low, high = sim.task.action_low, sim.task.action_high
             assert all(np.all(a >= low) and np.all(a <= high) for a in actions)
-            found[name] = any(sim.execute(grasp, a, seed).task_success for a in actions)
-        assert found == {"far_end": True, "near_hook": False}
+            found[name] = [sim.execute(grasp, a, seed).task_success for a in actions[:3]]
+        # The best-ranked pull works from the far end; held near the hook no pull is found at all.
+        assert found["far_end"][0] and not any(found["near_hook"]), found
+
+
+def test_the_oracle_ranks_pulls_by_the_face_that_meets_the_can():
+    from tognet.tasks.pulling_props import _pull_positions
+
+    r = 0.033
+    bar = np.array([[0.0, -0.01], [0.3, -0.01], [0.3, 0.01], [0.0, 0.01]])  # along x, 2 cm wide
+    hook = np.array([[0.28, 0.01], [0.3, 0.01], [0.3, 0.11], [0.28, 0.11]])  # across it at the far end
+    cans = np.array([[x, y] for x in np.arange(0.05, 0.27, 0.01) for y in np.arange(-0.15, 0.16, 0.01)])
+    # A straight bar along the pull has no face toward the can: nothing.
+    assert _pull_positions([bar], cans, r) == []
+    found = _pull_positions([bar, hook], cans, r)
+    assert found
+    for _, off, (x, y) in found:
+        # Beside the bar on the hook's side, just short of the hook, meeting it near the can's centre line.
+        assert 0.01 + r < y < 0.11 + 0.5 * r and 0.28 - r - 0.061 <= x < 0.28 - r and off <= 0.5 * r
+    # The best meet the hook's face across most of the can's width, well inside the hook's end.
+    score, _, (_, y) = max(found, key=lambda f: f[0])
+    assert score >= 0.8 and y < 0.11 - 0.5 * r

@@ -28,7 +28,7 @@ def demo(
     seeds: int = typer.Option(5, min=1, help="Scenes per scripted check in the task part."),
     gif: bool = typer.Option(True, help="Animate one hammering episode (needs MuJoCo's renderer: EGL)."),
     evaluate: bool = typer.Option(
-        True, help="Evaluate every method with the shipped models on both tasks (a few minutes) and write "
+        True, help="Evaluate every method with the shipped models on every task (a few minutes) and write "
         "the report (OUT/evaluation/report.html)."
     ),
 ) -> None:

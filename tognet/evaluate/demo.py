@@ -1,5 +1,6 @@
-"""The evaluation ``make run`` shows: the shipped models, every method, both tasks, all three categories,
-at a scale that runs in a few minutes on two cores (the README's table is the same run at 300+ scenes)."""
+"""The evaluation ``make run`` shows: the shipped models, every method, every task with a shipped model, all
+three categories, at a scale that runs in a few minutes on two cores (the README's table is the same run at
+300 scenes)."""
 
 from __future__ import annotations
 
@@ -24,16 +25,21 @@ def run_demo(out: str | Path = "runs/demo/evaluation", *, episodes: int = DEMO_E
              test_objects: int = DEMO_OBJECTS, workers: int | None = None, progress: bool = True,
              grasp_model: str | Path | None = None, task_models: dict[str, str | Path | None] | None = None,
              run_dir: str | Path | None = None, log: Callable[[str], None] = print) -> dict[str, Any]:
-    """Evaluate all methods on both tasks and the three test categories (``episodes`` scenes each, on
-    ``test_objects`` objects per category) with the shipped checkpoints unless others are given; writes
-    ``out/report.html``. Run again, it resumes (only re-rendering the report when everything is there); an
-    earlier demo evaluation in ``out`` with other settings (e.g. new models) is replaced."""
+    """Evaluate all methods on every registered task with a shipped (or given) model and the three test
+    categories (``episodes`` scenes each, on ``test_objects`` objects per category) with the shipped
+    checkpoints unless others are given; writes ``out/report.html``. Run again, it resumes (only
+    re-rendering the report when everything is there); an earlier demo evaluation in ``out`` with other
+    settings (e.g. new models) is replaced."""
     import shutil
 
     from tognet.evaluate.harness import SETTINGS, SettingsChanged, run_evaluation
+    from tognet.models import NAMES
+    from tognet.tasks import TASK_NAMES
+
+    tasks = [task for task in TASK_NAMES if task in NAMES or (task_models or {}).get(task)]
 
     def run() -> dict[str, Any]:
-        return run_evaluation(out, ["sweeping", "hammering"], "all",
+        return run_evaluation(out, tasks, "all",
                               categories=["pg-primitive", "pg-complex", "realistic"], episodes=episodes,
                               test_object_count=test_objects, grasp_model=grasp_model,
                               task_models=task_models, config=demo_config(), workers=workers, resume=True,

@@ -116,7 +116,7 @@ class Simulator(Trial):
             self._cat[m.geom(name).id] = PROP
         for name in props_mjcf.target_geoms:
             self._cat[m.geom(name).id] = TARGET
-        self._vertices = self._object_vertices()  # collision vertices, object frame
+        self._vertices, self._vertex_pieces = self._object_vertices()  # collision vertices, object frame
         self._com = np.asarray(obj.com, dtype=np.float64)  # the body's origin in the object frame
         self._body_vertices = self._vertices - self._com
         # Where the touch sensors (the tool's and the hand's contacts with the props) sit in sensordata; the
@@ -142,6 +142,12 @@ class Simulator(Trial):
     def vertices(self) -> NDArray[np.float64]:
         """(N, 3) collision vertices of the object in its own (mesh) frame; read-only."""
         return self._vertices
+
+    @property
+    def vertex_pieces(self) -> tuple[int, ...]:
+        """How many of :attr:`vertices` each convex collision piece has, in order: the hull of each piece's
+        vertices is that piece (``np.split(v, np.cumsum(sim.vertex_pieces)[:-1])`` splits them)."""
+        return self._vertex_pieces
 
     @property
     def scene(self) -> Mapping[str, Any] | None:
@@ -194,12 +200,12 @@ class Simulator(Trial):
         return self._hand_qadr
 
     # --- scene --------------------------------------------------------------------------------------
-    def _object_vertices(self) -> NDArray[np.float64]:
+    def _object_vertices(self) -> tuple[NDArray[np.float64], tuple[int, ...]]:
         pts = []
         for path in self.obj.collision_paths:
             rows = [line.split()[1:4] for line in path.read_text().splitlines() if line.startswith("v ")]
-            pts.append(np.asarray(rows, dtype=np.float64))
-        return np.concatenate(pts)
+            pts.append(np.asarray(rows, dtype=np.float64).reshape(-1, 3))
+        return np.concatenate(pts), tuple(len(p) for p in pts)
 
     def reset(self, seed: int) -> Observation:
         """A new scene from ``seed``: drop and settle the object, take the depth image, place the props."""

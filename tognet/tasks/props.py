@@ -50,6 +50,9 @@ class PropsHost(Protocol):
     def vertices(self) -> NDArray[np.float64]: ...  # collision vertices in the object's own frame
 
     @property
+    def vertex_pieces(self) -> tuple[int, ...]: ...  # vertices per convex collision piece, in order
+
+    @property
     def scene(self) -> Mapping[str, Any] | None: ...  # the settled scene (seed, layout, reference)
 
     @property

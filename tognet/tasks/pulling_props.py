@@ -14,7 +14,10 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+import shapely
 from numpy.typing import NDArray
+from shapely.geometry import MultiPoint
+from shapely.ops import unary_union
 
 from tognet.geometry import Grasp
 from tognet.objects.handmade import L_LONG, L_SHORT, L_WIDTH
@@ -29,6 +32,43 @@ TABLE_GAP = 0.008
 
 def _wrap(a: float) -> float:
     return float((a + np.pi) % (2 * np.pi) - np.pi)
+
+
+def _pull_positions(
+    outlines: list[NDArray[np.float64]], cans: NDArray[np.float64], radius: float
+) -> list[tuple[float, float, NDArray[np.float64]]]:
+    """(score, contact offset, can centre) for each can centre of ``cans`` (relative to the gripper,
+    world-aligned) from which pulling the tool, whose pieces' outlines (xy points, same frame) are given,
+    along -x catches the can (see :meth:`PullingProps.oracle_actions`); score = the fraction of the can's
+    width the pulling face covers."""
+    foot = unary_union([MultiPoint(p).convex_hull for p in outlines])
+    # The footprint's outline every 5 mm: the first point of it the moving can meets is where it pulls.
+    edge = shapely.get_coordinates(shapely.segmentize(foot.boundary, 0.005))
+    if len(edge) == 0:
+        return []
+    # Only can centres in the footprint's shadow (within a radius of it in y, short of its far end in x).
+    lo, hi = edge.min(axis=0), edge.max(axis=0)
+    cans = cans[(cans[:, 1] > lo[1] - radius) & (cans[:, 1] < hi[1] + radius) & (cans[:, 0] < hi[0])]
+    cans = cans[~shapely.contains_xy(foot, cans[:, 0], cans[:, 1])]
+    dx = edge[None, :, 0] - cans[:, 0:1]  # (cans, edge points)
+    dy = edge[None, :, 1] - cans[:, 1:2]
+    clear = np.sqrt((dx**2 + dy**2).min(axis=1)) - radius if len(cans) else np.zeros(0)
+    ok = clear >= HOOK_GAP / 4
+    cans, dx, dy = cans[ok], dx[ok], dy[ok]
+    ahead = (np.abs(dy) < radius) & (dx > 0)
+    travel = np.where(ahead, dx - np.sqrt(np.clip(radius**2 - dy**2, 0.0, None)), np.inf)
+    k = np.argmin(travel, axis=1) if len(cans) else np.zeros(0, dtype=int)
+    rows = np.arange(len(cans))
+    first, off = travel[rows, k], np.abs(dy[rows, k])
+    keep = np.isfinite(first) & (first <= 1.5 * HOOK_GAP) & (off <= 0.5 * radius)
+    if not keep.any():
+        return []
+    # How much of the can's width (9 lines across it) meets the face within 1.5 cm more travel.
+    near = travel[keep] < first[keep, None] + 0.015
+    lanes = np.linspace(-0.8, 0.8, 9) * radius
+    hit = np.abs(dy[keep][:, None, :] - lanes[None, :, None]) < 0.006
+    covered = (hit & near[:, None, :]).any(axis=2).mean(axis=1)
+    return [(float(sc), float(o), cn) for sc, o, cn in zip(covered, off[keep], cans[keep], strict=True)]
 
 
 class PullingProps(TaskProps):
@@ -149,11 +189,52 @@ class PullingProps(TaskProps):
 
     # --- privileged knowledge -------------------------------------------------------------------------
     def oracle_actions(self, pts: NDArray[np.float64], **options: Any) -> list[NDArray[np.float64]]:
-        """Candidate pulling actions for the tool at ``pts`` (gripper frame): at each start yaw of ``yaws``
-        (default three across the action box), the tool's tip (its points within 3 cm of its farthest
-        reach along world +x) lands ``HOOK_GAP`` behind the can, the can's centre 4 cm inside either end
-        of the tip in y, the tool's lowest point ``TABLE_GAP`` above the table."""
-        yaws = options.get("yaws", (-np.pi / 8, 0.0, np.pi / 8))
+        """Candidate pulling actions for the tool at ``pts`` (gripper frame, the host's vertices in order),
+        best first, at most ``limit`` (default 6).
+
+        At each start yaw of ``yaws`` (default five across the action box) the tool's footprint (the union
+        of its convex collision pieces' outlines, seen from above) is laid over every can position the
+        action box allows, on a 1 cm grid. A position is a pull when the footprint clears the can by
+        ``HOOK_GAP / 4`` (the tool comes down beside it, not on it) and, as the tool moves along -x, first
+        touches the can within ``HOOK_GAP * 1.5`` of travel, near the can's centre line (less than half its
+        radius off it: a face that pulls, not one that shoves the can aside). Pulls are ranked by how much
+        of the can's width that face covers, then by how centred the contact is. Without any, the tool's
+        tip (its far end, ``_tip_actions``) is put ``HOOK_GAP`` behind the can at three yaws."""
+        yaws = options.get("yaws", tuple(np.linspace(-np.pi / 4, np.pi / 4, 5)))
+        limit = int(options.get("limit", 6))
+        assert self.host is not None and self.task is not None
+        scene = self.host.scene
+        assert scene is not None
+        c, task = self.config, self.task
+        ref = np.asarray(scene["reference"])
+        nominal = np.asarray(c.nominal_offset)
+        grip_z = TABLE_GAP - float(pts[:, 2].min())
+        pieces = np.split(pts[:, :2], np.cumsum(self.host.vertex_pieces)[:-1])
+        # Can centres relative to the gripper that the action box allows (can - grip = -nominal - a).
+        lo, hi = np.asarray(task.action_low[:2]), np.asarray(task.action_high[:2])
+        gx = np.arange(-nominal[0] - hi[0], -nominal[0] - lo[0] + 1e-9, 0.01)
+        gy = np.arange(-nominal[1] - hi[1], -nominal[1] - lo[1] + 1e-9, 0.01)
+        cans = np.stack(np.meshgrid(gx, gy, indexing="ij"), axis=-1).reshape(-1, 2)
+        found: list[tuple[float, float, NDArray[np.float64]]] = []
+        for a_phi in yaws:
+            rot = rot2(c.nominal_yaw + a_phi)
+            for score, off, can in _pull_positions([p @ rot.T for p in pieces if len(p)], cans, c.can_radius):
+                a = np.array([-can[0], -can[1], grip_z - ref[2], 0.0]) - np.array([*nominal, -a_phi])
+                found.append((score, off, a))
+        found.sort(key=lambda f: (-f[0], f[1]))
+        out: list[NDArray[np.float64]] = []
+        for _, _, a in found:  # distinct actions: another yaw, or 2 cm apart
+            a = np.clip(a, task.action_low, task.action_high)
+            if all(abs(a[3] - b[3]) > 1e-6 or np.linalg.norm(a[:2] - b[:2]) > 0.02 for b in out):
+                out.append(a)
+            if len(out) == limit:
+                return out
+        return out or self._tip_actions(pts, (-np.pi / 8, 0.0, np.pi / 8))
+
+    def _tip_actions(self, pts: NDArray[np.float64], yaws: Any) -> list[NDArray[np.float64]]:
+        """At each start yaw, the tool's tip (its points within 3 cm of its farthest reach along world +x)
+        ``HOOK_GAP`` behind the can, the can's centre 4 cm inside either end of the tip in y, the tool's
+        lowest point ``TABLE_GAP`` above the table."""
         assert self.host is not None and self.task is not None
         scene = self.host.scene
         assert scene is not None
@@ -225,9 +306,11 @@ def pull_bar_grasp(x: float) -> tuple[Any, ...]:
 
 
 def pull_actions(
-    sim: Any, grasp: Grasp, yaws: tuple[float, ...] = (-np.pi / 8, 0.0, np.pi / 8), in_hand: object = None
+    sim: Any, grasp: Grasp, yaws: tuple[float, ...] | None = None, in_hand: object = None
 ) -> list[NDArray[np.float64]]:
-    """The oracle's pulling actions (:meth:`PullingProps.oracle_actions`) for ``grasp`` in the settled
-    scene of a pulling simulator ``sim``; ``in_hand`` as :func:`tognet.tasks.props.tool_in_gripper`."""
+    """The oracle's pulling actions (:meth:`PullingProps.oracle_actions`, best first) for ``grasp`` in the
+    settled scene of a pulling simulator ``sim``; ``in_hand`` as
+    :func:`tognet.tasks.props.tool_in_gripper`."""
     assert isinstance(sim.props, PullingProps)
-    return sim.props.oracle_actions(tool_in_gripper(sim, grasp, in_hand), yaws=yaws)
+    options = {} if yaws is None else {"yaws": yaws}
+    return sim.props.oracle_actions(tool_in_gripper(sim, grasp, in_hand), **options)
