@@ -29,7 +29,7 @@ class EvalConfig(Config):
         "Execution-noise seed of every evaluation trial: each method's trial on a scene runs with the same "
         "noise (common random numbers; the Oracle searches on other seeds).",
     )
-    sim: SimConfig = doc(factory=SimConfig, text="The simulated world and both tasks' set-ups.")
+    sim: SimConfig = doc(factory=SimConfig, text="The simulated world and every task's set-up.")
     plan: PlanConfig = doc(factory=PlanConfig, text="The planners' settings (candidates, CEM, Oracle).")
 
     def fingerprint(self) -> str:

@@ -78,8 +78,10 @@ def results_chart(results: dict[str, Any], path: Path) -> Path:
 
         _bars(ax, cats, methods, cell, f"{task}" + (" (one or two cans)" if task == "sweeping" else ""))
     handles, labels = axes[0][0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncols=len(methods), fontsize=8, frameon=False)
-    fig.tight_layout(rect=(0, 0.07, 1, 1))
+    # One row of labels when the figure is wide enough for them (about 1.4 in each), else two rows.
+    rows = 1 if per_task * len(tasks) >= 1.4 * len(methods) else 2
+    fig.legend(handles, labels, loc="lower center", ncols=-(-len(methods) // rows), fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, 0.07 * rows, 1, 1))
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
     plt.close(fig)

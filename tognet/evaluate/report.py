@@ -364,8 +364,9 @@ def _html(results: dict[str, Any], pictures: dict[str, Path | None],
                   "<div class='row'>", *(t.html() for t in cans), "</div>"]
     parts += ["<h2>Where each model grasps</h2>", img("qualitative", "grasps on depth images"),
               "<p class='note'>The same depth image (the object alone on the table) per row: the "
-              "task-agnostic grasp (CEM on Q_G), and TOG-Net's sweeping and hammering grasps (CEM on each "
-              "task's Q_T), with the score each was chosen by. A white dot marks each finger.</p>"]
+              "task-agnostic grasp (CEM on Q_G), and TOG-Net's grasp for each task evaluated ("
+              f"{html.escape(', '.join(results['tasks']))}; CEM on that task's Q_T), with the score each was "
+              "chosen by. A white dot marks each finger.</p>"]
     parts.append("<h2>Episodes (GIFs at real speed)</h2>")
     if gif_note:
         parts.append(f"<p class='note'>{html.escape(gif_note)}</p>")
