@@ -226,3 +226,15 @@ def test_the_command_names_bad_input_in_one_line(tmp_path, models, args, message
     result = CliRunner().invoke(app, base + [a.replace("{tmp}", str(tmp_path)) for a in args])
     assert result.exit_code == 2, result.output
     assert message in result.output and "Traceback" not in result.output
+
+
+def test_the_report_says_when_a_resumed_run_only_re_rendered_it():
+    from tognet.evaluate.report import _settings_lines
+
+    results = {"settings": {"tasks": ["pulling"], "episodes": 3, "categories": ["pg-primitive"],
+                            "models": {}, "config_hash": "abc"},
+               "run": {"episodes_run_now": 0, "seconds_now": 0.0, "episodes_per_s_now": None, "workers": 2}}
+    assert "re-rendered the report" in _settings_lines(results, None)[3]
+    results["run"].update(episodes_run_now=18, seconds_now=6.0, episodes_per_s_now=3.0)
+    line = _settings_lines(results, None)[3]
+    assert "18 episodes in 6 s (3.00 episodes/s on 2 workers)" in line and "re-rendered" not in line

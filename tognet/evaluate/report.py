@@ -327,8 +327,10 @@ def _settings_lines(results: dict[str, Any], run: Path | None) -> list[str]:
         f"scene (the same object pose, depth image and execution noise: paired comparisons).",
         f"Categories: {', '.join(s['categories'])} (test split: objects never used in training).",
         "Models: " + "; ".join(f"{k} {v['path']} (sha256 {v['sha256']})" for k, v in s["models"].items()),
-        f"Config hash {s['config_hash']}; this run: {r['episodes_run_now']} episodes in "
-        f"{r['seconds_now']:.0f} s" + (f" ({eps:.2f} episodes/s on {r['workers']} workers)" if eps else "")
+        f"Config hash {s['config_hash']}; "
+        + (f"this run: {r['episodes_run_now']} episodes in {r['seconds_now']:.0f} s"
+           + (f" ({eps:.2f} episodes/s on {r['workers']} workers)" if eps else "")
+           if r["episodes_run_now"] else "every episode was already there (this run re-rendered the report)")
         + ".",
         f"Training curves from {run}" if run else "No pipeline run folder given: no training curves.",
     ]
