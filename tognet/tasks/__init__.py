@@ -21,18 +21,17 @@ from tognet.tasks.sweeping_props import SweepingProps
 
 @dataclass(frozen=True)
 class TaskEntry:
-    """A registered task: its class, its config class (a section of ``SimConfig`` named after the task)
-    and its props in the simulator."""
+    """A registered task: its class (which names its config class, a section of ``SimConfig`` named after
+    the task) and its props in the simulator."""
 
     task: type[Task]
-    config: type
     props: type[TaskProps]
 
 
 _REGISTRY: dict[str, TaskEntry] = {
-    "sweeping": TaskEntry(Sweeping, SweepingConfig, SweepingProps),
-    "hammering": TaskEntry(Hammering, HammeringConfig, HammeringProps),
-    "pulling": TaskEntry(Pulling, PullingConfig, PullingProps),
+    "sweeping": TaskEntry(Sweeping, SweepingProps),
+    "hammering": TaskEntry(Hammering, HammeringProps),
+    "pulling": TaskEntry(Pulling, PullingProps),
 }
 TASK_NAMES: tuple[str, ...] = tuple(_REGISTRY)
 #: The task a command runs when none is named.
@@ -52,7 +51,7 @@ def get_task(name: str, config: Any = None) -> Task:
 
 def task_config_class(name: str) -> type:
     """The config class of the task called ``name``."""
-    return _entry(name).config
+    return _entry(name).task.config_class
 
 
 def get_props(task: Task | None) -> TaskProps:
@@ -68,6 +67,8 @@ __all__ = [
     "Hammering",
     "HammeringConfig",
     "Motion",
+    "Pulling",
+    "PullingConfig",
     "Sweeping",
     "SweepingConfig",
     "TASK_NAMES",

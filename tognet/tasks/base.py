@@ -55,12 +55,16 @@ class TaskOutcome:
 
 
 class Task:
-    """Base class of a task; subclasses set ``name``, ``config`` and implement the abstract methods."""
+    """Base class of a task; subclasses set ``name`` and ``config_class`` and implement the abstract
+    methods."""
 
     name: str = ""
+    #: The task's config class (a section of ``SimConfig`` named after the task); its defaults when none
+    #: is given.
+    config_class: type = object
 
-    def __init__(self, config: Any) -> None:
-        self.config = config
+    def __init__(self, config: Any = None) -> None:
+        self.config = config if config is not None else self.config_class()
 
     # --- action space -------------------------------------------------------------------------------
     @property

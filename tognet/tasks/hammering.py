@@ -99,9 +99,7 @@ class Hammering(Task):
 
     name = "hammering"
     config: HammeringConfig
-
-    def __init__(self, config: HammeringConfig | None = None) -> None:
-        super().__init__(config or HammeringConfig())
+    config_class = HammeringConfig
 
     def sample_layout(self, rng: np.random.Generator) -> dict[str, Any]:
         """The slot face position (x, y); the peg's centre is on the face at its axis height."""

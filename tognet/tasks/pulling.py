@@ -96,9 +96,7 @@ class Pulling(Task):
 
     name = "pulling"
     config: PullingConfig
-
-    def __init__(self, config: PullingConfig | None = None) -> None:
-        super().__init__(config or PullingConfig())
+    config_class = PullingConfig
 
     def sample_layout(self, rng: np.random.Generator) -> dict[str, Any]:
         """The can: (x, y, mass)."""

@@ -98,9 +98,7 @@ class Sweeping(Task):
 
     name = "sweeping"
     config: SweepingConfig
-
-    def __init__(self, config: SweepingConfig | None = None) -> None:
-        super().__init__(config or SweepingConfig())
+    config_class = SweepingConfig
 
     def sample_layout(self, rng: np.random.Generator) -> dict[str, Any]:
         """Cans: list of (x, y, mass)."""
