@@ -129,7 +129,17 @@ def trial_records(view: SceneView, grasps: NDArray[np.float64], actions: NDArray
         "grasp_source": grasp_source,
         "action_source": action_source,
         "score": score.astype(np.float32),
+        "progress": np.array([_progress(view.task, r) for r in results], dtype=np.float32),
     }
+
+
+def _progress(task: Any, result: Any) -> float:
+    """The task's graded outcome (in [0, 1]) of a trial that held the tool and ran the primitive; -1 where
+    it is unknown (no task, the grasp failed, an invalid trial, a task that does not grade)."""
+    if task is None or not (result.valid and result.grasp_success):
+        return -1.0
+    value = float(task.progress(result.info))
+    return value if np.isfinite(value) else -1.0
 
 
 def reset_scene(sim: Any, scene_seed: int, stats: Counter[str]) -> Any:

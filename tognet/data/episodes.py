@@ -11,7 +11,9 @@ action that were executed, and the labels the simulator produced. A dataset fold
 
 Crops are stored as float16 (8 KiB a record before compression; its ~3e-5 m step near 3 cm is far below the
 depth noise) in compressed ``.npz`` files; readers hand them out as float16 too (cast to float32 per batch).
-Format version 1 (float32 crops, no ``grasp_source``/``action_source``/``score``) is still read.
+Format version 1 (float32 crops, no ``grasp_source``/``action_source``/``score``) and 2 (no ``progress``,
+the task's graded outcome :meth:`tognet.tasks.Task.progress`) are still read; missing fields get their
+defaults (``progress`` -1: unknown).
 
 Shards are written to a temporary file and renamed, so a crash never leaves a half-written shard under
 its final name. A writer opened on an existing folder appends new shard indices and never overwrites.
@@ -41,9 +43,9 @@ from tognet.errors import TognetError
 from tognet.tasks.base import FailureReason
 
 #: Version of the shard/manifest layout; bump on any incompatible change.
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 #: Versions this code reads (older shards get the new fields' defaults).
-READABLE_VERSIONS = (1, 2)
+READABLE_VERSIONS = (1, 2, 3)
 CROP_SIZE = 64
 MANIFEST = "manifest.json"
 SHARD_PATTERN = re.compile(r"^shard-(\d{5,})\.npz$")
@@ -64,6 +66,7 @@ FIELDS: dict[str, tuple[np.dtype, tuple[int, ...]]] = {
     "grasp_source": (np.dtype(np.int8), ()),
     "action_source": (np.dtype(np.int8), ()),
     "score": (np.dtype(np.float32), ()),
+    "progress": (np.dtype(np.float32), ()),
 }
 #: int8 codes of where an episode's grasp came from (``grasp_source``) and its action (``action_source``);
 #: stored in every manifest. Collection policies name themselves with these.
@@ -88,7 +91,7 @@ def failure_code(reason: object) -> int:
 
 #: Fields a caller may leave out of :meth:`ShardWriter.add`, with their default value.
 DEFAULTS: dict[str, Any] = {"valid": 1, "failure": 0, "trial": 0, "grasp_source": 0, "action_source": 0,
-                            "score": -1.0}
+                            "score": -1.0, "progress": -1.0}
 
 
 class DatasetError(TognetError):
@@ -113,10 +116,11 @@ class EpisodeArrays:
     grasp_source: np.ndarray = None  # type: ignore[assignment]  (None: the default for every episode)
     action_source: np.ndarray = None  # type: ignore[assignment]
     score: np.ndarray = None  # type: ignore[assignment]
+    progress: np.ndarray = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         n = int(np.asarray(self.z).shape[0])
-        for name in ("grasp_source", "action_source", "score"):
+        for name in ("grasp_source", "action_source", "score", "progress"):
             if getattr(self, name) is None:
                 setattr(self, name, np.full((n,), DEFAULTS[name], dtype=FIELDS[name][0]))
 

@@ -125,3 +125,9 @@ class Task:
     def evaluate(self, outcome: TaskOutcome) -> tuple[bool, FailureReason]:
         """Task success and, if it failed, why."""
         raise NotImplementedError
+
+    def progress(self, values: dict[str, Any]) -> float:
+        """How much of the task a trial did, in [0, 1] (1 for a success), from the outcome values its props
+        measured (``TrialResult.info``): a graded label beside S_T, so that a trial that nearly worked can
+        teach more than a bare failure. NaN when the values do not say (this base class)."""
+        return float("nan")

@@ -122,3 +122,11 @@ class Hammering(Task):
         if not outcome.touched_targets:
             return False, FailureReason.MISSED
         return False, FailureReason.TASK_FAILED
+
+    def progress(self, values: dict[str, Any]) -> float:
+        """The share of the peg's free half driven in: 0 untouched, 1 when at most ``success_tolerance``
+        sticks out (``values['peg_out']``)."""
+        if "peg_out" not in values:
+            return float("nan")
+        free = 0.5 * self.config.peg_length - self.config.success_tolerance
+        return float(np.clip(1.0 - (float(values["peg_out"]) - self.config.success_tolerance) / free, 0.0, 1.0))

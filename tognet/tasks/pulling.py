@@ -122,3 +122,14 @@ class Pulling(Task):
         if outcome.still_moving:
             return False, FailureReason.TIMEOUT
         return False, FailureReason.TASK_FAILED
+
+    def progress(self, values: dict[str, Any]) -> float:
+        """How far the can came back toward the target region: 0 where it stood (or off the table), 1 in
+        the region (``values['can_xy']``, ``values['can_start_x']``)."""
+        if bool(values.get("can_in_target", False)):
+            return 1.0
+        if "can_xy" not in values or "can_start_x" not in values or not values.get("can_on_table", True):
+            return 0.0 if "can_xy" in values else float("nan")
+        start, end = float(values["can_start_x"]), float(self.config.target_x[1])
+        moved = start - float(values["can_xy"][0])
+        return float(np.clip(moved / max(start - end, 1e-6), 0.0, 0.99))

@@ -184,6 +184,7 @@ class PullingProps(TaskProps):
             "can_xy": [x, y],
             "can_tilt": tilt,
             "can_on_table": on_table,
+            "can_start_x": float(self.layout["can"][0]),
         }
         return values, speed > 0.05
 

@@ -132,3 +132,8 @@ class Sweeping(Task):
         if outcome.still_moving:
             return False, FailureReason.TIMEOUT
         return False, FailureReason.TASK_FAILED
+
+    def progress(self, values: dict[str, Any]) -> float:
+        """The share of the cans that reached the ground (``values['cans_on_ground']``)."""
+        on_ground = list(values.get("cans_on_ground", []))
+        return float(np.mean(on_ground)) if on_ground else float("nan")
