@@ -129,4 +129,5 @@ class Hammering(Task):
         if "peg_out" not in values:
             return float("nan")
         free = 0.5 * self.config.peg_length - self.config.success_tolerance
-        return float(np.clip(1.0 - (float(values["peg_out"]) - self.config.success_tolerance) / free, 0.0, 1.0))
+        left = float(values["peg_out"]) - self.config.success_tolerance
+        return float(np.clip(1.0 - left / free, 0.0, 1.0))
