@@ -48,7 +48,7 @@ from tognet.data.episodes import (
 
 Split = Literal["train", "val", "all"]
 #: Columns a batch carries, and the columns read to select a shard's rows.
-BATCH_FIELDS = ("crop", "z", "action", "grasp_success", "task_success")
+BATCH_FIELDS = ("crop", "z", "action", "grasp_success", "task_success", "progress")
 _SELECT_FIELDS = ("valid", "object_id")
 #: Seed stream of the shards sampled for normalisation statistics (distinct from the epochs' streams).
 _SAMPLE_STREAM = 0x6E6F726D
@@ -57,13 +57,14 @@ _SAMPLE_STREAM = 0x6E6F726D
 @dataclasses.dataclass
 class Batch:
     """One batch of episodes as float32 tensors: crop (B, 64, 64), z (B,), action (B, 4), s_g and s_t (B,)
-    (grasp and task success as 0/1)."""
+    (grasp and task success as 0/1), progress (B,) (the task's graded outcome in [0, 1], -1 unknown)."""
 
     crop: torch.Tensor
     z: torch.Tensor
     action: torch.Tensor
     s_g: torch.Tensor
     s_t: torch.Tensor
+    progress: torch.Tensor
 
     def __len__(self) -> int:
         return int(self.z.shape[0])
@@ -84,8 +85,9 @@ class Batch:
             # than numpy's cast here); always a fresh tensor, never a view of the columns
             return torch.from_numpy(np.ascontiguousarray(columns[name][sl])).to(torch.float32, copy=True)
 
+        progress = f32("progress") if "progress" in columns else torch.full_like(f32("z"), -1.0)
         return Batch(crop=f32("crop"), z=f32("z"), action=f32("action"), s_g=f32("grasp_success"),
-                     s_t=f32("task_success"))
+                     s_t=f32("task_success"), progress=progress)
 
 
 @dataclasses.dataclass(frozen=True)

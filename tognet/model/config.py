@@ -23,6 +23,19 @@ class ArchConfig(Config):
     head_hidden: int = doc(64, "Hidden units of each head's fully connected layer.")
     crop_size: int = doc(64, "Side of the large crop (Q_T|G and action streams), pixels.")
     center_size: int = doc(32, "Side of the centre crop (Q_G stream), pixels; sliced from the large crop.")
+    task_head: Literal["policy", "action"] = doc(
+        "policy",
+        "'policy': the paper's task stream, Q_T|G from (crop, z) alone: the chance of success with the "
+        "collection policy's action. 'action': the task stream also sees the action, Q_T|G,a (and the "
+        "task's graded outcome), trained on every trial, so a grasp can be rated by the best action it "
+        "allows and a planner can search the action (the learned action search, beyond the paper).",
+    )
+    action_features: int = doc(32, "Width of the action embedding of an action-conditioned task stream.")
+    action_hidden: int = doc(
+        128,
+        "Hidden units of an action-conditioned task stream's head (two layers); wider than the other "
+        "heads: it must tell, for one grasp, the actions that work from those that do not.",
+    )
 
 
 @dataclass(frozen=True)
@@ -51,6 +64,13 @@ class LossConfig(Config):
     weight_grasp: float = doc(1.0, "Weight of the Q_G cross-entropy term (1 = the paper).")
     weight_task: float = doc(1.0, "Weight of the Q_T|G cross-entropy term (1 = the paper).")
     weight_action: float = doc(1.0, "Weight of the action term (1 = the paper).")
+    weight_progress: float = doc(
+        0.5,
+        "Weight of the graded-outcome term of an action-conditioned task stream (cross-entropy of the "
+        "predicted progress against the trial's progress in [0, 1], over trials that held the tool and "
+        "whose task grades): a trial that nearly worked says more than a bare 0. Unused by the paper's "
+        "model.",
+    )
 
 
 @dataclass(frozen=True)
@@ -68,6 +88,13 @@ class TrainConfig(Config):
         0.1, "Fraction of the *objects* held out for validation (never split by episode)."
     )
     patience: int = doc(5, "Early stopping: epochs without a better validation loss before stopping.")
+    monitor: Literal["loss", "classification"] = doc(
+        "loss",
+        "What early stopping and the best checkpoint watch on the validation objects: 'loss' (the whole "
+        "objective, the paper's) or 'classification' (the Q_G and Q_T|G cross-entropies only): when the "
+        "action term dominates the loss, 'loss' stops as soon as the action regression stalls, before the "
+        "task classifier has learnt.",
+    )
     min_delta: float = doc(1e-4, "Early stopping: smallest decrease of validation loss that counts.")
     seed: int = doc(0, "Seed of weight initialisation, batch order and the validation split.")
     num_threads: int = doc(

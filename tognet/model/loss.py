@@ -9,6 +9,11 @@ and f, a in the stored action units (the network's normalised output is denormal
 text once writes the action term weighted by S_G, but its equation (and the policy-gradient argument
 with task success as reward) uses 1[S_T = 1]; we follow the equation. S_T = 1 implies S_G = 1.
 
+An action-conditioned task stream (``ArchConfig.task_head = "action"``, beyond the paper) adds a graded term:
+``weight_progress * 1[S_G = 1, progress known] * CE(progress, P)`` (:func:`progress_sum`), P its predicted
+progress; its Q_T|G is then Q_T|G,a at the trial's own action, so the task term is trained on every trial
+that held the tool, failures included, as before.
+
 Reductions over a batch of N episodes:
 
 - ``"batch"`` (default): each term is summed over its masked episodes and divided by N, i.e. the paper's
@@ -65,9 +70,12 @@ def tognet_loss(
     task_success: torch.Tensor,
     action: torch.Tensor,
     config: LossConfig | None = None,
+    progress_logit: torch.Tensor | None = None,
+    progress: torch.Tensor | None = None,
 ) -> dict[str, torch.Tensor]:
-    """The loss and its components (all scalars): ``loss``, ``grasp``, ``task``, ``action`` (weighted
-    terms before summing) and the mask sizes ``n_grasp_success``, ``n_task_success``.
+    """The loss and its components (all scalars): ``loss``, ``grasp``, ``task``, ``action``, ``progress``
+    (weighted terms before summing; ``progress`` 0 without ``progress_logit``) and the mask sizes
+    ``n_grasp_success``, ``n_task_success``.
 
     ``action_pred`` and ``action`` are (N, 4) in the same (stored) units.
     """
@@ -76,14 +84,29 @@ def tognet_loss(
     s_g, s_t, s_a, n_g, n_t = masked_sums(q_g_logit, q_tg_logit, action_pred, grasp_success, task_success,
                                           action, config.action_sigma)
     grasp, task, act = reduce_sums(s_g, s_t, s_a, n, n_g, n_t, config)
+    prog = torch.zeros((), dtype=grasp.dtype, device=grasp.device)
+    if progress_logit is not None and progress is not None:
+        s_p, n_p = progress_sum(progress_logit, progress, grasp_success)
+        prog = config.weight_progress * s_p / (n if config.reduction == "batch" else n_p.clamp_min(1.0))
     return {
-        "loss": grasp + task + act,
+        "loss": grasp + task + act + prog,
         "grasp": grasp,
         "task": task,
         "action": act,
+        "progress": prog,
         "n_grasp_success": n_g,
         "n_task_success": n_t,
     }
+
+
+def progress_sum(progress_logit: torch.Tensor, progress: torch.Tensor, grasp_success: torch.Tensor
+                 ) -> tuple[torch.Tensor, torch.Tensor]:
+    """Sum of CE(progress, sigmoid(progress_logit)) over the trials that held the tool and whose progress
+    is known (in [0, 1]; -1 is unknown), and their number."""
+    m = (grasp_success > 0.5) & (progress >= 0.0)
+    ce = F.binary_cross_entropy_with_logits(progress_logit[m], progress[m].to(progress_logit.dtype),
+                                            reduction="sum")
+    return ce, m.sum().to(ce.dtype)
 
 
 def reduce_sums(
@@ -123,4 +146,4 @@ def q_task(q_g: torch.Tensor, q_tg: torch.Tensor) -> torch.Tensor:
     return q_tg * q_g
 
 
-COMPONENTS: Sequence[str] = ("loss", "grasp", "task", "action")
+COMPONENTS: Sequence[str] = ("loss", "grasp", "task", "action", "progress")

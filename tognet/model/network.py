@@ -9,6 +9,12 @@ small fully connected embedding:
 - task stream  (64 x 64 features + z)         -> logit of Q_T|G
 - action stream (64 x 64 features + z)        -> normalised action mean f(o, g) (4 values)
 
+With ``ArchConfig.task_head = "action"`` (the learned action search, beyond the paper) the task stream
+also sees an action a: its first layer adds an embedding of a to the grasp's features, so the grasp's
+part is computed once and many actions are scored for it cheaply (:meth:`TOGNet.encode_task`,
+:meth:`TOGNet.score_actions`). It predicts the logit of Q_T|G,a and the logit of the task's graded outcome
+(progress); without an action given, it scores the network's own action mean.
+
 Inputs are raw crops (depth minus gripper depth, metres) and z (metres); the normalisation statistics
 computed from the training data live in buffers, so a state dict carries them.
 """
@@ -91,6 +97,34 @@ class Stream(nn.Module):
         return self.head(torch.cat([x, z_embed], dim=1))
 
 
+class ActionTaskStream(nn.Module):
+    """The action-conditioned task stream: bottleneck features and z (one part per grasp) plus an action
+    embedding (one part per action) -> two logits (task success, progress) per (grasp, action) pair."""
+
+    def __init__(self, cin: int, spatial: int, arch: ArchConfig) -> None:
+        super().__init__()
+        b, h = arch.bottleneck_channels, arch.action_hidden
+        self.bottleneck = nn.Sequential(
+            nn.Conv2d(cin, b, 1, bias=False), nn.BatchNorm2d(b), nn.ReLU(inplace=True)
+        )
+        self.grasp_part = nn.Linear(b * spatial * spatial + arch.z_features, h)
+        self.action_part = nn.Sequential(
+            nn.Linear(ACTION_DIM, arch.action_features), nn.ReLU(inplace=True),
+            nn.Linear(arch.action_features, h, bias=False),
+        )
+        self.head = nn.Sequential(nn.ReLU(), nn.Linear(h, h), nn.ReLU(), nn.Linear(h, 2))
+
+    def encode(self, features: torch.Tensor, z_embed: torch.Tensor) -> torch.Tensor:
+        """The grasp's part of the first layer (N, hidden)."""
+        return self.grasp_part(torch.cat([self.bottleneck(features).flatten(1), z_embed], dim=1))
+
+    def score(self, encoded: torch.Tensor, action_norm: torch.Tensor) -> torch.Tensor:
+        """Logits (..., 2) for normalised actions: ``encoded`` (N, H) with actions (N, 4) or (N, K, 4)."""
+        a = self.action_part(action_norm)
+        x = encoded + a if a.dim() == 2 else encoded.unsqueeze(1) + a
+        return self.head(x)
+
+
 class TOGNet(nn.Module):
     """Predicts logits of Q_G and Q_T|G and the normalised action mean from (crop, z)."""
 
@@ -108,7 +142,8 @@ class TOGNet(nn.Module):
         c = self.trunk.out_channels
         self.z_embed = nn.Sequential(nn.Linear(1, arch.z_features), nn.ReLU(inplace=True))
         self.grasp = Stream(c, small, arch, 1)
-        self.task = Stream(c, big, arch, 1)
+        self.task: nn.Module = (ActionTaskStream(c, big, arch) if arch.task_head == "action"
+                                else Stream(c, big, arch, 1))
         self.action = Stream(c, big, arch, ACTION_DIM)
         # Input/output normalisation (set from training data by :meth:`set_normalization`).
         self.register_buffer("crop_mean", torch.zeros(()))
@@ -117,19 +152,23 @@ class TOGNet(nn.Module):
         self.register_buffer("z_std", torch.ones(()))
         self.register_buffer("action_mean", torch.zeros(ACTION_DIM))
         self.register_buffer("action_std", torch.ones(ACTION_DIM))
+        if arch.task_head == "action":  # the task stream's action input: spread of every tried action
+            self.register_buffer("action_in_mean", torch.zeros(ACTION_DIM))
+            self.register_buffer("action_in_std", torch.ones(ACTION_DIM))
+
+    def _stat_names(self) -> tuple[str, ...]:
+        names = ("crop_mean", "crop_std", "z_mean", "z_std", "action_mean", "action_std")
+        return (*names, "action_in_mean", "action_in_std") if self.arch.task_head == "action" else names
 
     def set_normalization(self, stats: dict[str, object]) -> None:
         """Copy normalisation statistics (see :func:`normalization_from_data`) into the buffers."""
-        for name in ("crop_mean", "crop_std", "z_mean", "z_std", "action_mean", "action_std"):
+        for name in self._stat_names():
             buf = getattr(self, name)
             buf.copy_(torch.as_tensor(stats[name], dtype=buf.dtype).reshape(buf.shape))
 
     def normalization(self) -> dict[str, float | list[float]]:
         """The normalisation statistics as plain numbers."""
-        return {
-            name: getattr(self, name).detach().cpu().tolist()
-            for name in ("crop_mean", "crop_std", "z_mean", "z_std", "action_mean", "action_std")
-        }
+        return {name: getattr(self, name).detach().cpu().tolist() for name in self._stat_names()}
 
     def check_inputs(self, crop: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
         """Validate shapes; returns crop as (N, 1, S, S). ValueError names the bad input and shape."""
@@ -144,8 +183,13 @@ class TOGNet(nn.Module):
             raise ValueError(f"z: expected shape ({crop.shape[0]},) to match the crops, got {tuple(z.shape)}")
         return crop
 
-    def forward(self, crop: torch.Tensor, z: torch.Tensor) -> dict[str, torch.Tensor]:
-        """Returns ``q_g_logit`` (N,), ``q_tg_logit`` (N,) and ``action_norm`` (N, 4)."""
+    @property
+    def action_conditioned(self) -> bool:
+        """Whether the task stream sees the action (``ArchConfig.task_head == "action"``)."""
+        return self.arch.task_head == "action"
+
+    def _features(self, crop: torch.Tensor, z: torch.Tensor
+                  ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         crop = self.check_inputs(crop, z)
         x = (crop - self.crop_mean) / self.crop_std
         lo = (self.arch.crop_size - self.arch.center_size) // 2
@@ -153,11 +197,43 @@ class TOGNet(nn.Module):
         feat_big = self.trunk(x)
         feat_small = self.trunk(x[:, :, lo:hi, lo:hi].contiguous())
         z_e = self.z_embed(((z - self.z_mean) / self.z_std).unsqueeze(1))
-        return {
-            "q_g_logit": self.grasp(feat_small, z_e).squeeze(1),
-            "q_tg_logit": self.task(feat_big, z_e).squeeze(1),
-            "action_norm": self.action(feat_big, z_e),
-        }
+        return feat_big, feat_small, z_e
+
+    def forward(self, crop: torch.Tensor, z: torch.Tensor, action: torch.Tensor | None = None
+                ) -> dict[str, torch.Tensor]:
+        """Returns ``q_g_logit`` (N,), ``q_tg_logit`` (N,) and ``action_norm`` (N, 4); an action-conditioned
+        model also ``progress_logit`` (N,), both for ``action`` (N, 4, stored units) or, when None, for its
+        own action mean. The paper's model ignores ``action``."""
+        feat_big, feat_small, z_e = self._features(crop, z)
+        action_norm = self.action(feat_big, z_e)
+        out = {"q_g_logit": self.grasp(feat_small, z_e).squeeze(1), "action_norm": action_norm}
+        if isinstance(self.task, ActionTaskStream):
+            a = self.normalize_action(self.denormalize_action(action_norm.detach()) if action is None
+                                      else action)
+            logits = self.task.score(self.task.encode(feat_big, z_e), a)
+            out["q_tg_logit"], out["progress_logit"] = logits[:, 0], logits[:, 1]
+        else:
+            out["q_tg_logit"] = self.task(feat_big, z_e).squeeze(1)
+        return out
+
+    def encode_task(self, crop: torch.Tensor, z: torch.Tensor) -> dict[str, torch.Tensor]:
+        """For an action-conditioned model: ``q_g_logit`` (N,), ``action_norm`` (N, 4) and ``encoded`` (N, H),
+        the grasp's part of the task stream, to score many actions with :meth:`score_actions`."""
+        if not isinstance(self.task, ActionTaskStream):
+            raise ValueError("this model's task stream does not see the action (ArchConfig.task_head)")
+        feat_big, feat_small, z_e = self._features(crop, z)
+        return {"q_g_logit": self.grasp(feat_small, z_e).squeeze(1),
+                "action_norm": self.action(feat_big, z_e), "encoded": self.task.encode(feat_big, z_e)}
+
+    def score_actions(self, encoded: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        """Logits (N, K, 2) (task success, progress) of actions (N, K, 4, stored units) for encoded grasps."""
+        assert isinstance(self.task, ActionTaskStream)
+        return self.task.score(encoded, self.normalize_action(actions))
+
+    def normalize_action(self, action: torch.Tensor) -> torch.Tensor:
+        """Stored action units (m, m, m, rad) -> the action-conditioned task stream's input (normalised
+        by the spread of every action tried, not only of the successful ones the mean head fits)."""
+        return (action - self.action_in_mean) / self.action_in_std
 
     def denormalize_action(self, action_norm: torch.Tensor) -> torch.Tensor:
         """Normalised action -> stored action units (m, m, m, rad)."""
@@ -169,9 +245,11 @@ def normalization_from_data(
 ) -> dict[str, object]:
     """Statistics of the training data: scalar crop and z mean/std; per-dim action mean/std computed over
     task successes (the only actions the loss fits), falling back to all episodes when there are fewer
-    than two. Std-devs are floored at 1e-6."""
+    than two; per-dim mean/std of every action (the input of an action-conditioned task stream).
+    Std-devs are floored at 1e-6."""
     ok = task_success > 0.5
     acts = action[ok] if int(ok.sum()) >= 2 else action
+    every = action if action.shape[0] >= 2 else torch.zeros(2, ACTION_DIM)
     if acts.shape[0] >= 2:
         a_mean, a_std = acts.mean(0), acts.std(0)
     else:
@@ -184,6 +262,8 @@ def normalization_from_data(
         "z_std": max(float(z.double().std()), 1e-6) if z.numel() > 1 else 1.0,
         "action_mean": a_mean.tolist(),
         "action_std": a_std.clamp_min(1e-6).tolist(),
+        "action_in_mean": every.mean(0).tolist(),
+        "action_in_std": every.std(0).clamp_min(1e-6).tolist(),
     }
 
 

@@ -59,6 +59,19 @@ def _optimized(model: TOGNet, device: torch.device) -> Callable[..., dict[str, t
         return model
 
 
+@dataclasses.dataclass(frozen=True)
+class ActionSearchInputs:
+    """What an action-conditioned model computed once per candidate: Q_G (N,), the action mean (N, 4) and
+    the grasp's part of the task stream (a tensor, N x hidden)."""
+
+    q_g: np.ndarray
+    action_mean: np.ndarray
+    encoded: torch.Tensor
+
+    def __len__(self) -> int:
+        return int(self.q_g.shape[0])
+
+
 class TOGNetPredictor:
     """A trained TOG-Net in eval mode (batch norm folded; TorchScript-optimised on CPU unless
     ``optimize=False``) with its checkpoint's self-description in ``info``."""
@@ -138,6 +151,39 @@ class TOGNetPredictor:
         t = torch.cat(q_tg).float().cpu().numpy()
         a = torch.cat(act).float().cpu().numpy()
         return Prediction(q_g=g, q_t_given_g=t, q_t=g * t, action_mean=a)
+
+    @property
+    def action_conditioned(self) -> bool:
+        """Whether the task stream sees the action (a model of the learned action search)."""
+        return bool(self.model.action_conditioned)
+
+    @torch.inference_mode()
+    def encode(self, crops: np.ndarray, z: np.ndarray) -> ActionSearchInputs:
+        """For an action-conditioned model: Q_G, the action mean and the grasp's part of the task stream
+        for N candidates, to score many actions each with :meth:`score_actions`."""
+        if not self.action_conditioned:
+            raise ValueError(f"{self.info.get('path', 'this model')}: its task stream does not see the "
+                             "action (trained with ArchConfig.task_head='policy'); the action search needs "
+                             "one trained with task_head='action'")
+        c, zz = self._inputs(crops, z)
+        out = self.model.encode_task(c, zz)
+        return ActionSearchInputs(q_g=torch.sigmoid(out["q_g_logit"]).float().cpu().numpy(),
+                                  action_mean=self.model.denormalize_action(out["action_norm"]).float().cpu()
+                                  .numpy(), encoded=out["encoded"])
+
+    @torch.inference_mode()
+    def score_actions(self, inputs: ActionSearchInputs, actions: np.ndarray,
+                      rows: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Q_T|G,a and the predicted progress (both (M, K)) of actions (M, K, 4) (stored units) for the
+        encoded candidates ``rows`` (M indices; default all N)."""
+        enc = inputs.encoded
+        if rows is not None:
+            enc = enc[torch.as_tensor(np.asarray(rows), dtype=torch.long)]
+        a = torch.from_numpy(np.ascontiguousarray(actions, dtype=np.float32)).to(self.device)
+        if a.dim() != 3 or a.shape[0] != enc.shape[0] or a.shape[2] != 4:
+            raise ValueError(f"actions: expected shape ({enc.shape[0]}, K, 4), got {tuple(a.shape)}")
+        logits = torch.sigmoid(self.model.score_actions(enc, a)).float().cpu().numpy()
+        return logits[..., 0], logits[..., 1]
 
     def score_fn(self, kind: Literal["task", "grasp", "task_given_grasp"] = "task"
                  ) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:

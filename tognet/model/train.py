@@ -45,7 +45,7 @@ from tognet.model.checkpoint import (
     save_checkpoint,
 )
 from tognet.model.config import TrainConfig
-from tognet.model.loss import masked_sums, reduce_sums, resolve_loss, tognet_loss
+from tognet.model.loss import masked_sums, progress_sum, reduce_sums, resolve_loss, tognet_loss
 from tognet.model.metrics import head_metrics
 from tognet.model.network import TOGNet, normalization_from_data
 from tognet.model.runtime import select_device, set_threads, tune_allocator
@@ -98,23 +98,28 @@ def evaluate(model: TOGNet, batches: Iterable[Batch], config: TrainConfig, progr
              total: int | None = None) -> dict[str, Any]:
     """Validation loss (components, reduced over all the batches together as in training) and per-head
     metrics, over ``batches`` (e.g. :meth:`EpisodeStream.batches`; ``total``: their number, for the bar).
-    Only predictions and labels are kept, not crops."""
+    Only predictions and labels are kept, not crops. An action-conditioned model is scored at each
+    episode's own action (its Q_T|G,a), as it is trained."""
     model.eval()
     device = next(model.parameters()).device
     loss_config = resolve_loss(config.loss, model.action_std)
     n = 0
-    sums = torch.zeros(3, dtype=torch.float64)
-    counts = torch.zeros(2, dtype=torch.float64)
+    sums = torch.zeros(4, dtype=torch.float64)
+    counts = torch.zeros(3, dtype=torch.float64)
     q_g, q_tg, act, s_g, s_t, a_true = [], [], [], [], [], []
     for batch in tqdm(batches, total=total, desc="evaluating", unit="batch", disable=not progress,
                       leave=False, mininterval=1.0):
         b = batch.to(device)
-        out = model(b.crop, b.z)
+        out = _forward(model, b)
         a_pred = model.denormalize_action(out["action_norm"])
         terms = masked_sums(out["q_g_logit"], out["q_tg_logit"], a_pred, b.s_g, b.s_t, b.action,
                             loss_config.action_sigma)
-        sums += torch.stack(terms[:3]).double().cpu()
-        counts += torch.stack(terms[3:]).double().cpu()
+        sums[:3] += torch.stack(terms[:3]).double().cpu()
+        counts[:2] += torch.stack(terms[3:]).double().cpu()
+        if "progress_logit" in out:
+            s_p, n_p = progress_sum(out["progress_logit"], b.progress, b.s_g)
+            sums[3] += float(s_p)
+            counts[2] += float(n_p)
         q_g.append(torch.sigmoid(out["q_g_logit"]).cpu())
         q_tg.append(torch.sigmoid(out["q_tg_logit"]).cpu())
         act.append(a_pred.cpu())
@@ -126,12 +131,20 @@ def evaluate(model: TOGNet, batches: Iterable[Batch], config: TrainConfig, progr
     if n == 0:
         return result
     g, t, a = reduce_sums(sums[0], sums[1], sums[2], n, counts[0], counts[1], loss_config)
-    result.update(loss=float(g + t + a), grasp=float(g), task=float(t), action=float(a))
+    p = loss_config.weight_progress * sums[3] / (n if loss_config.reduction == "batch"
+                                                 else max(float(counts[2]), 1.0))
+    result.update(loss=float(g + t + a + p), grasp=float(g), task=float(t), action=float(a),
+                  progress=float(p), classification=float(g + t))
     result["metrics"] = head_metrics(
         torch.cat(q_g).numpy(), torch.cat(q_tg).numpy(), torch.cat(act).numpy(),
         torch.cat(s_g).numpy(), torch.cat(s_t).numpy(), torch.cat(a_true).numpy(),
     )
     return result
+
+
+def _forward(model: TOGNet, b: Batch) -> dict[str, torch.Tensor]:
+    """The model on a batch; an action-conditioned one sees each episode's own action."""
+    return model(b.crop, b.z, b.action) if model.action_conditioned else model(b.crop, b.z)
 
 
 def crop_config_from_data(data_dirs: Sequence[str | Path], arch: Any) -> dict[str, Any] | None:
@@ -412,7 +425,7 @@ def _train(
             stopped_early = True
             break
         model.train()
-        sums = {k: 0.0 for k in ("loss", "grasp", "task", "action")}
+        sums = {k: 0.0 for k in ("loss", "grasp", "task", "action", "progress")}
         used = 0
         t0 = time.perf_counter()
         bar = tqdm(stream.batches("train", config.batch_size, epoch=epoch), total=n_batches,
@@ -422,10 +435,10 @@ def _train(
             if len(batch) < 2:
                 continue  # batch norm cannot train on a single sample (only the epoch's last batch can be)
             b = batch.to(device)
-            out_b = model(b.crop, b.z)
+            out_b = _forward(model, b)
             parts = tognet_loss(out_b["q_g_logit"], out_b["q_tg_logit"],
                                 model.denormalize_action(out_b["action_norm"]), b.s_g, b.s_t, b.action,
-                                loss_config)
+                                loss_config, out_b.get("progress_logit"), b.progress)
             optimizer.zero_grad(set_to_none=True)
             parts["loss"].backward()
             optimizer.step()
@@ -440,7 +453,8 @@ def _train(
         scheduler.step()
         val_stats = (evaluate(model, stream.batches("val", config.eval_batch_size), config)
                      if n_val else {"count": 0})
-        monitor = val_stats.get("loss", train_stats["loss"])
+        monitor = (val_stats.get("classification", train_stats["grasp"] + train_stats["task"])
+                   if config.monitor == "classification" else val_stats.get("loss", train_stats["loss"]))
         record = {"epoch": epoch + 1, "lr": lr, "seconds": seconds, "train": train_stats, "val": val_stats}
         history.append(record)
         if not math.isfinite(monitor):
@@ -448,7 +462,9 @@ def _train(
                                 "the data (last good state: last.pt)")
         improved = best["loss"] is None or monitor < best["loss"] - config.min_delta
         if improved:
-            best = {"loss": float(monitor), "epoch": epoch + 1, "monitor": "val" if n_val else "train",
+            best = {"loss": float(monitor), "epoch": epoch + 1,
+                    "monitor": ("val" if n_val else "train") + (" classification" if config.monitor ==
+                                                               "classification" else ""),
                     "val": val_stats}
             bad_epochs = 0
         else:
