@@ -22,8 +22,8 @@ code's TrainConfig has (written by an older tognet) or has one it does not know,
 :class:`CheckpointError` with the reason; so does a truncated or corrupt file, or weights that do not fit
 the recorded architecture. A missing *training-loop* field (one added later, e.g. a data-loading setting)
 takes its default and is listed in ``payload["defaults_filled"]``: it cannot change what the network
-computes; so does a loss field in :data:`SAME_AS_BEFORE`, whose value there is how older checkpoints
-were trained.
+computes; so does an architecture or loss field in :data:`SAME_AS_BEFORE`, whose value there is how older
+checkpoints were trained.
 """
 
 from __future__ import annotations
@@ -53,7 +53,12 @@ class CheckpointError(TognetError):
 
 #: Nested config fields added after checkpoints existed, with the value that reproduces how those older
 #: checkpoints were trained (so a missing one is filled in, not refused).
-SAME_AS_BEFORE: dict[str, object] = {"loss.action_sigma_source": "fixed"}
+SAME_AS_BEFORE: dict[str, object] = {
+    "loss.action_sigma_source": "fixed",
+    # the action-conditioned task stream came later: every older model is the paper's
+    "arch.task_head": "policy", "arch.action_features": 32, "arch.action_hidden": 128,
+    "loss.weight_progress": 0.5,
+}
 
 
 @functools.lru_cache(maxsize=1)
@@ -152,6 +157,8 @@ def load_checkpoint(path: str | Path, map_location: str | torch.device = "cpu") 
         for key in older:
             section, name = key.split(".")
             cfg[section] = {**cfg.get(section, {}), name: SAME_AS_BEFORE[key]}
+            if section == "arch" and isinstance(payload.get("arch"), dict):
+                payload["arch"] = {**payload["arch"], name: SAME_AS_BEFORE[key]}
         payload["config"] = cfg
         filled = filled + older
     payload["defaults_filled"] = filled
