@@ -70,9 +70,9 @@ FIELDS: dict[str, tuple[np.dtype, tuple[int, ...]]] = {
 }
 #: int8 codes of where an episode's grasp came from (``grasp_source``) and its action (``action_source``);
 #: stored in every manifest. Collection policies name themselves with these.
-GRASP_SOURCES: dict[str, int] = {"unknown": 0, "nms": 1, "cem": 2, "given": 3}
+GRASP_SOURCES: dict[str, int] = {"unknown": 0, "nms": 1, "cem": 2, "given": 3, "search": 4}
 ACTION_SOURCES: dict[str, int] = {"unknown": 0, "uniform": 1, "baseline_random": 2, "policy": 3, "given": 4,
-                                  "none": 5, "expert": 6}
+                                  "none": 5, "expert": 6, "search": 7}
 #: int8 code of each failure reason, by name: its position in ``tognet.tasks.FailureReason`` (append new
 #: reasons at the end of the enum so stored codes keep their meaning); stored in every manifest so a
 #: dataset explains its own codes. ``failure`` may also be given as these names.

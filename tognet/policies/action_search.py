@@ -28,6 +28,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tognet.config import Config, doc
+from tognet.data.episodes import ACTION_SOURCES, GRASP_SOURCES
+from tognet.policies.view import ActionPick, GraspPick, SceneView
 
 
 @dataclass(frozen=True)
@@ -160,3 +162,70 @@ def best_actions(model: Any, crops: NDArray[np.float32], z: NDArray[np.float32],
         return np.zeros((0, 4)), np.zeros(0)
     enc, rate_a, _ = rate_candidates(model, crops, z, low, high, config, rng)
     return refine_actions(model, enc, np.arange(len(enc)), rate_a, low, high, config, rng)
+
+
+class ActionSearchGrasps:
+    """Grasp policy: the learned action search's grasp for the scene (searched once per scene, cached on
+    the view with its action, the same grasp for every call on that scene)."""
+
+    def __init__(self, model: Any, config: ActionSearchConfig) -> None:
+        self.model = model
+        self.config = config
+
+    def result(self, view: SceneView, rng: np.random.Generator) -> tuple[NDArray[np.float64], SearchResult]:
+        """The scene's candidates and the search over them (cached on the view)."""
+        key = f"action_search_{id(self.model)}"
+        if key not in view.cache:
+            task = view.task
+            if task is None:
+                raise ValueError("the action search needs a task (the grasp-only task has no actions)")
+            grasps = view.candidates.grasps
+            crops, z = view.crops(grasps)
+            view.cache[key] = (grasps, search(self.model, crops, z, task.action_low, task.action_high,
+                                              self.config, rng))
+        return view.cache[key]
+
+    def __call__(self, view: SceneView, n: int, rng: np.random.Generator) -> GraspPick:
+        grasps, res = self.result(view, rng)
+        best = grasps[res.index[0]]
+        return GraspPick(np.repeat(best[None], n, axis=0), np.full(n, GRASP_SOURCES["search"], np.int8),
+                         np.full(n, res.q_t[0], np.float32))
+
+
+class ActionSearchActions:
+    """Action policy: for each grasp the learned action search's action (the scene's search's own action
+    for its grasp, else a search over that grasp's actions), plus N(0, noise^2) per dimension, clipped to
+    the task's box (noise zero when planning)."""
+
+    def __init__(self, model: Any, config: ActionSearchConfig,
+                 noise: tuple[float, ...] | NDArray[np.float64] = (0.0,) * 4) -> None:
+        self.model = model
+        self.config = config
+        self.noise = np.asarray(noise, dtype=np.float64)
+
+    def searched(self, view: SceneView, grasps: NDArray[np.float64], rng: np.random.Generator
+                 ) -> NDArray[np.float64]:
+        """The searched action of each grasp (N, 4), before noise."""
+        task = view.task
+        if task is None:
+            raise ValueError("the action search needs a task (the grasp-only task has no actions)")
+        acts = np.zeros((len(grasps), 4))
+        todo = np.ones(len(grasps), bool)
+        cached = view.cache.get(f"action_search_{id(self.model)}")
+        if cached is not None:  # the scene's search already holds an action for its grasps
+            cands, res = cached
+            for row, act in zip(res.index, res.actions, strict=True):
+                same = todo & np.all(grasps == cands[row], axis=1)
+                acts[same], todo[same] = act, False
+        if todo.any():
+            uniq, inverse = np.unique(grasps[todo], axis=0, return_inverse=True)
+            crops, z = view.crops(uniq)
+            found, _ = best_actions(self.model, crops, z, task.action_low, task.action_high, self.config, rng)
+            acts[todo] = found[inverse.reshape(-1)]
+        return acts
+
+    def __call__(self, view: SceneView, grasps: NDArray[np.float64], rng: np.random.Generator) -> ActionPick:
+        assert view.task is not None
+        acts = self.searched(view, grasps, rng) + rng.standard_normal((len(grasps), 4)) * self.noise
+        acts = np.clip(acts, view.task.action_low, view.task.action_high)
+        return ActionPick(acts, np.full(len(grasps), ACTION_SOURCES["search"], np.int8))
