@@ -15,7 +15,7 @@ FAST = PlanConfig(oracle=OracleConfig(grasps=2, seeds=1, max_trials=12))
 
 @pytest.fixture(scope="module")
 def models(tmp_path_factory):
-    from tognet.collect.jobs import load_model
+    from tognet.jobs.models import load_model
 
     paths = tiny_models(tmp_path_factory.mktemp("models"))
     return {name: load_model(str(p)) for name, p in paths.items()}
