@@ -293,3 +293,39 @@ def test_a_round_whose_first_jobs_all_fail_stops_and_writes_nothing_for_them(obj
                       grasp_model=bad, executor=LocalExecutor(0), progress=False, log=lambda _m: None)
     manifest = json.loads((tmp_path / "d" / "manifest.json").read_text())
     assert manifest["shards"] == [] and not list((tmp_path / "d").glob("shard-*"))
+
+
+def test_a_rounds_policies_are_built_from_its_policy_name_in_one_place(objects):
+    """round_policies: exploration for nms_uniform, epsilon-greedy mixes of the model's policies and that
+    exploration for epsilon_greedy, expert actions mixed into exploration when asked for (tasks only)."""
+    from tognet.collect.jobs import round_policies
+    from tognet.policies.action import ExpertActions, NoActions, PolicyActions, UniformActions
+    from tognet.policies.grasp import CEMGrasp, NMSGrasps
+    from tognet.policies.mix import EpsilonGreedyActions, EpsilonGreedyGrasps, ExpertMixActions
+
+    model, sim = object(), object()
+    expert_cfg = RoundConfig(expert_actions=0.25).collect_config(SMALL)
+
+    def job(task, policy, cfg=SMALL):
+        return plan_jobs(task, 1, objects, 3, policy, cfg)[0]
+
+    grasps, actions = round_policies(job("sweeping", "nms_uniform"), sim, model)
+    assert isinstance(grasps, NMSGrasps) and grasps.grasp_model is model
+    assert isinstance(actions, UniformActions)
+    grasps, actions = round_policies(job("grasping", "nms_uniform", expert_cfg), sim)
+    assert isinstance(grasps, NMSGrasps) and isinstance(actions, NoActions)  # no expert without a task
+    _, actions = round_policies(job("sweeping", "nms_uniform", expert_cfg), sim)
+    assert isinstance(actions, ExpertMixActions) and isinstance(actions.base, UniformActions)
+    assert isinstance(actions.expert, ExpertActions) and actions.expert.sim is sim
+    assert actions.probability == 0.25
+    grasps, actions = round_policies(job("sweeping", "epsilon_greedy", expert_cfg), sim, None, model)
+    p = expert_cfg.policy
+    assert isinstance(grasps, EpsilonGreedyGrasps) and grasps.epsilon == p.epsilon_grasp
+    assert isinstance(grasps.greedy, CEMGrasp) and grasps.greedy.model is model
+    assert isinstance(grasps.explore, NMSGrasps)
+    assert isinstance(actions, EpsilonGreedyActions) and actions.epsilon == p.epsilon_action
+    assert isinstance(actions.greedy, PolicyActions) and isinstance(actions.explore, ExpertMixActions)
+    with pytest.raises(ValueError, match="needs the last round's task model"):
+        round_policies(job("sweeping", "epsilon_greedy"), sim)
+    with pytest.raises(ValueError, match="unknown round policy 'greedy'"):
+        round_policies(job("sweeping", "greedy"), sim)

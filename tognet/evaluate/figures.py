@@ -219,7 +219,7 @@ def animate_episode(config: EvalConfig, task: str, obj: ObjectRecord, scene_seed
 
 @dataclass(frozen=True)
 class GifJob:
-    """One episode to animate, as a job for the collection's executors (``index`` and ``obj``)."""
+    """One episode to animate, as a job for :mod:`tognet.jobs`' executors (``index`` and ``obj``)."""
 
     index: int
     obj: ObjectRecord
