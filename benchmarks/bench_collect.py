@@ -20,7 +20,7 @@ from pathlib import Path
 
 from tognet.collect.config import CollectConfig, RoundConfig, load_preset
 from tognet.collect.rounds import collect_round
-from tognet.collect.workers import Executor, LocalExecutor
+from tognet.jobs.workers import Executor, LocalExecutor
 from tognet.objects import generate_set
 
 
@@ -47,7 +47,7 @@ def main() -> None:
     executors: dict[str, Executor] = {"local-1": LocalExecutor(1), "local-2": LocalExecutor(2)}
     if not args.no_ray:
         try:
-            from tognet.collect.workers import RayExecutor
+            from tognet.jobs.workers import RayExecutor
 
             executors["ray-2"] = RayExecutor(workers=2)
         except Exception as exc:  # Ray missing: say so, measure the rest

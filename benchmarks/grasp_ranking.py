@@ -17,13 +17,14 @@ from pathlib import Path
 
 import numpy as np
 
-from tognet.collect.config import PolicyConfig
-from tognet.collect.jobs import load_model
-from tognet.collect.policies import NMSGrasps, SceneView
 from tognet.geometry import Grasp
 from tognet.grasping import AntipodalConfig, CropConfig, prepare_depth, sample_antipodal
+from tognet.jobs.models import load_model
 from tognet.model.metrics import binary_metrics
 from tognet.objects import generate_set
+from tognet.policies.config import PolicyConfig
+from tognet.policies.grasp import NMSGrasps
+from tognet.policies.view import SceneView
 from tognet.sim import SimConfig, SimulationError, Simulator
 
 

@@ -22,10 +22,10 @@ import numpy as np
 
 from tognet.collect.config import CollectConfig, RoundConfig
 from tognet.collect.rounds import collect_round
-from tognet.collect.workers import LocalExecutor
 from tognet.data.episodes import FAILURE_CODES, FIELDS, read_dataset
 from tognet.geometry import Grasp
 from tognet.grasping import AntipodalConfig, prepare_depth, sample_antipodal
+from tognet.jobs.workers import LocalExecutor
 from tognet.model.config import TrainConfig
 from tognet.model.train import train
 from tognet.objects import generate_set

@@ -20,9 +20,9 @@ from tognet.collect.config import CollectConfig, RoundConfig
 from tognet.collect.jobs import plan_jobs, run_job
 from tognet.collect.rounds import collect_round
 from tognet.collect.store import RoundStore
-from tognet.collect.workers import LocalExecutor
 from tognet.data.episodes import FIELDS, DatasetError, read_dataset
 from tognet.geometry import Grasp
+from tognet.jobs.workers import LocalExecutor
 from tognet.objects import generate_set
 from tognet.sim import SimConfig, Simulator
 
@@ -75,16 +75,16 @@ def test_round_killed_with_sigkill_resumes_to_the_same_records(objects, tmp_path
         import time
         from tognet.collect.config import CollectConfig, RoundConfig
         from tognet.collect.rounds import collect_round
-        from tognet.collect.workers import LocalExecutor
+        from tognet.jobs.workers import LocalExecutor
         from tognet.objects import load_catalog
         objects = load_catalog({str(Path(objects[0].folder).parent)!r})
         slow = LocalExecutor(0)
         run = slow.run
-        def paced(jobs, on_result, log):
+        def paced(jobs, on_result, log, fn):
             def late(job, out):
                 on_result(job, out)
                 time.sleep(0.5)
-            run(jobs, late, log)
+            run(jobs, late, log, fn)
         slow.run = paced
         collect_round("hammering", 1, objects, RoundConfig(episodes=18, policy="nms_uniform"),
                       CollectConfig(trials_per_scene=3, scenes_per_job=1), {str(killed)!r}, executor=slow,
@@ -109,7 +109,7 @@ def test_round_killed_with_sigkill_resumes_to_the_same_records(objects, tmp_path
 class _KillOneWorker(LocalExecutor):
     """Local workers; after the first result, one worker process is SIGKILLed (mid-job)."""
 
-    def run(self, jobs, on_result, log):
+    def run(self, jobs, on_result, log, fn):
         killed = []
 
         def then_kill(job, output):
@@ -119,7 +119,7 @@ class _KillOneWorker(LocalExecutor):
                 os.kill(pid, signal.SIGKILL)
                 killed.append(pid)
 
-        super().run(jobs, then_kill, log)
+        super().run(jobs, then_kill, log, fn)
         self.killed = killed
 
 
@@ -183,7 +183,7 @@ def test_reopening_with_other_settings_is_refused(objects, tmp_path):
 def test_ray_and_local_workers_write_identical_records(objects, tmp_path):
     """The same jobs through a local Ray instance (started by the test) and through local processes."""
     pytest.importorskip("ray")
-    from tognet.collect.workers import RayExecutor
+    from tognet.jobs.workers import RayExecutor
 
     rc = RoundConfig(episodes=9, policy="nms_uniform")
     local = LocalExecutor(1)
@@ -206,7 +206,7 @@ def test_workers_end_when_their_coordinator_is_killed(tmp_path):
     """A coordinator SIGKILLed with its worker pool up leaves no orphan worker behind."""
     script = textwrap.dedent("""
         import os, time
-        from tognet.collect.workers import LocalExecutor
+        from tognet.jobs.workers import LocalExecutor
         ex = LocalExecutor(1)
         pool = ex._new_pool()
         pool.submit(os.getpid).result()
@@ -231,10 +231,11 @@ def test_two_nms_rankings_on_one_scene_keep_their_own_modes():
     """The antipodal ranking and a Q_G ranking share a SceneView's cache without reading each other's."""
     from types import SimpleNamespace
 
-    from tognet.collect.config import PolicyConfig
-    from tognet.collect.policies import NMSGrasps, SceneView
     from tognet.grasping import AntipodalConfig, CropConfig, prepare_depth, sample_antipodal
     from tognet.grasping.synthetic import Box, render_depth, tilted_camera
+    from tognet.policies.config import PolicyConfig
+    from tognet.policies.grasp import NMSGrasps
+    from tognet.policies.view import SceneView
 
     camera = tilted_camera(0.9)
     depth = render_depth(camera, [Box.on_table(0.0, 0.0, (0.3, 0.03, 0.03), 0.0)])
@@ -292,3 +293,39 @@ def test_a_round_whose_first_jobs_all_fail_stops_and_writes_nothing_for_them(obj
                       grasp_model=bad, executor=LocalExecutor(0), progress=False, log=lambda _m: None)
     manifest = json.loads((tmp_path / "d" / "manifest.json").read_text())
     assert manifest["shards"] == [] and not list((tmp_path / "d").glob("shard-*"))
+
+
+def test_a_rounds_policies_are_built_from_its_policy_name_in_one_place(objects):
+    """round_policies: exploration for nms_uniform, epsilon-greedy mixes of the model's policies and that
+    exploration for epsilon_greedy, expert actions mixed into exploration when asked for (tasks only)."""
+    from tognet.collect.jobs import round_policies
+    from tognet.policies.action import ExpertActions, NoActions, PolicyActions, UniformActions
+    from tognet.policies.grasp import CEMGrasp, NMSGrasps
+    from tognet.policies.mix import EpsilonGreedyActions, EpsilonGreedyGrasps, ExpertMixActions
+
+    model, sim = object(), object()
+    expert_cfg = RoundConfig(expert_actions=0.25).collect_config(SMALL)
+
+    def job(task, policy, cfg=SMALL):
+        return plan_jobs(task, 1, objects, 3, policy, cfg)[0]
+
+    grasps, actions = round_policies(job("sweeping", "nms_uniform"), sim, model)
+    assert isinstance(grasps, NMSGrasps) and grasps.grasp_model is model
+    assert isinstance(actions, UniformActions)
+    grasps, actions = round_policies(job("grasping", "nms_uniform", expert_cfg), sim)
+    assert isinstance(grasps, NMSGrasps) and isinstance(actions, NoActions)  # no expert without a task
+    _, actions = round_policies(job("sweeping", "nms_uniform", expert_cfg), sim)
+    assert isinstance(actions, ExpertMixActions) and isinstance(actions.base, UniformActions)
+    assert isinstance(actions.expert, ExpertActions) and actions.expert.sim is sim
+    assert actions.probability == 0.25
+    grasps, actions = round_policies(job("sweeping", "epsilon_greedy", expert_cfg), sim, None, model)
+    p = expert_cfg.policy
+    assert isinstance(grasps, EpsilonGreedyGrasps) and grasps.epsilon == p.epsilon_grasp
+    assert isinstance(grasps.greedy, CEMGrasp) and grasps.greedy.model is model
+    assert isinstance(grasps.explore, NMSGrasps)
+    assert isinstance(actions, EpsilonGreedyActions) and actions.epsilon == p.epsilon_action
+    assert isinstance(actions.greedy, PolicyActions) and isinstance(actions.explore, ExpertMixActions)
+    with pytest.raises(ValueError, match="needs the last round's task model"):
+        round_policies(job("sweeping", "epsilon_greedy"), sim)
+    with pytest.raises(ValueError, match="unknown round policy 'greedy'"):
+        round_policies(job("sweeping", "greedy"), sim)

@@ -11,8 +11,8 @@ from eval_testlib import renderer_available, tiny_models
 from typer.testing import CliRunner
 
 from tognet.cli import app
-from tognet.collect.workers import LocalExecutor
 from tognet.evaluate import EvalConfig, EvalError, newcombe_paired, paired_difference, run_evaluation, wilson
+from tognet.jobs.workers import LocalExecutor
 from tognet.objects.record import load_catalog
 from tognet.planning import METHODS, OracleConfig, PlanConfig
 from tognet.sim import Simulator

@@ -9,10 +9,10 @@ import pytest
 
 from tognet.collect.config import CollectConfig, RoundConfig
 from tognet.collect.rounds import collect_round
-from tognet.collect.workers import LocalExecutor
 from tognet.data import read_dataset
 from tognet.geometry import Grasp
 from tognet.grasping import AntipodalConfig, CEMConfig, CropConfig, cem, prepare_depth, sample_antipodal
+from tognet.jobs.workers import LocalExecutor
 from tognet.objects import generate_set
 from tognet.sim import SimConfig, Simulator
 from tognet.tasks import get_task

@@ -15,7 +15,7 @@ FAST = PlanConfig(oracle=OracleConfig(grasps=2, seeds=1, max_trials=12))
 
 @pytest.fixture(scope="module")
 def models(tmp_path_factory):
-    from tognet.collect.jobs import load_model
+    from tognet.jobs.models import load_model
 
     paths = tiny_models(tmp_path_factory.mktemp("models"))
     return {name: load_model(str(p)) for name, p in paths.items()}
@@ -91,3 +91,36 @@ def test_planner_arguments_are_checked(models, objects):
     sim.reset(5)
     with pytest.raises(ValueError, match="does not hold the observation's scene"):
         make_planner("Oracle", sim.task, sim=sim, config=FAST)(obs, np.random.default_rng(0))
+
+
+def test_each_method_is_one_row_of_the_table_and_a_new_row_plans(models, objects):
+    """METHODS and NEEDS come from the table; a row says what kind of method it is; a diagnostic row
+    (here the TOG-Net grasp with the simulator's expert motion) needs the simulator and then plans."""
+    from tognet.data.episodes import ACTION_SOURCES
+    from tognet.planning import METHOD_TABLE, NEEDS, Method, get_method
+    from tognet.policies.action import ExpertActions
+    from tognet.policies.grasp import CEMGrasp
+
+    assert METHODS == tuple(m.name for m in METHOD_TABLE) and len(set(METHODS)) == len(METHODS)
+    assert NEEDS == {m.name: m.needs for m in METHOD_TABLE}
+    assert [m.name for m in METHOD_TABLE if m.baseline] == [
+        "Antipodal+Random", "Task_Agn+Random", "Task_Agn+Trained", "Task_Ori+Random"]
+    assert [m.name for m in METHOD_TABLE if m.uses_sim] == ["Oracle"]
+    assert get_method("tog-net").kind == "ours" and get_method("Oracle").planner is not None
+    with pytest.raises(ValueError, match="a grasp and an action policy, or a planner"):
+        Method("half", "baseline", grasp=lambda i: CEMGrasp(i.config.policy, i.task_model))
+    row = Method("TOG-Net grasp + expert motion", "diagnostic", ("task",),
+                 grasp=lambda i: CEMGrasp(i.config.policy, i.task_model),
+                 action=lambda i: ExpertActions(i.sim))
+    assert row.uses_sim and not row.baseline
+    sim = Simulator(SimConfig(), "hammering", objects["primitive"])
+    with pytest.raises(ValueError, match="needs the simulator"):
+        make_planner(row, sim.task, task_model=models["hammering"])
+    obs = sim.reset(2)
+    plan = make_planner(row, sim.task, task_model=models["hammering"], config=FAST, sim=sim)(
+        obs, np.random.default_rng(3))
+    ours = make_planner("TOG-Net", sim.task, task_model=models["hammering"], config=FAST)(
+        obs, np.random.default_rng(3))
+    assert plan.method == row.name and plan.info["action_source"] == ACTION_SOURCES["expert"]
+    np.testing.assert_array_equal(plan.grasp, ours.grasp)
+    assert sim.execute(plan.grasp_pose, plan.action, seed=0).failure in FailureReason

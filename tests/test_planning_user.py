@@ -137,8 +137,8 @@ def test_a_simulated_image_planned_through_the_cli_gives_the_simulators_grasp(
 def test_the_user_planner_is_the_evaluations_tognet_planner_on_the_same_view(planner, observation):
     """With the camera's own depth as the network's z (as the simulator's planners use), planning a
     simulator image gives exactly the evaluation's TOG-Net plan on that image in the table frame: both are
-    the collection's CEMGrasp on Q_T and PolicyActions' mean."""
-    planners = pytest.importorskip("tognet.planning.planners")
+    tognet.policies' CEMGrasp on Q_T and PolicyActions' mean."""
+    planners = pytest.importorskip("tognet.planning.methods")
     from types import SimpleNamespace
 
     from tognet.tasks import get_task

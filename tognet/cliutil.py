@@ -18,6 +18,11 @@ F = TypeVar("F", bound=Callable[..., Any])
 USER_ERRORS: tuple[type[BaseException], ...] = (TognetError, ConfigError, FileNotFoundError, ValueError)
 
 
+#: ``--workers``, ``--ray`` and ``--ray-address`` of the commands that run jobs (collection, evaluation).
+WORKERS_HELP = "Local worker processes (default: the number of cores)."
+RAY_HELP = "Run the jobs on a local Ray instance (pip install 'tognet\\[ray]')."
+RAY_ADDRESS_HELP = "Run the jobs on this Ray cluster ('auto', or 'ray://HOST:10001')."
+
 #: ``--task`` of the commands that run several tasks: a task's name, ``all`` (every registered task) or
 #: ``both`` (the paper's two, sweeping and hammering, as before a third task was registered).
 TASKS_HELP = (

@@ -6,11 +6,15 @@ from pathlib import Path
 
 import typer
 
-from tognet.cliutil import TASKS_HELP, out_folder, task_list, user_errors
-
-WORKERS_HELP = "Local worker processes (default: the number of cores)."
-RAY_HELP = "Run the jobs on a local Ray instance (pip install 'tognet\\[ray]')."
-RAY_ADDRESS_HELP = "Run the jobs on this Ray cluster ('auto', or 'ray://HOST:10001')."
+from tognet.cliutil import (
+    RAY_ADDRESS_HELP,
+    RAY_HELP,
+    TASKS_HELP,
+    WORKERS_HELP,
+    out_folder,
+    task_list,
+    user_errors,
+)
 
 
 @user_errors
@@ -37,7 +41,7 @@ def collect_cmd(
     from tognet.collect.config import CollectConfig, RoundConfig
     from tognet.collect.jobs import GRASP_ONLY
     from tognet.collect.rounds import collect_round
-    from tognet.collect.workers import make_executor
+    from tognet.jobs.workers import make_executor
     from tognet.objects.record import load_catalog
     from tognet.tasks import TASK_NAMES
 

@@ -10,6 +10,9 @@ of the executed grasp, the grasp and action as executed (rounded to float32 firs
 record replays exactly: ``Simulator(cfg.sim, task, obj).reset(scene_seed)`` then
 ``execute(grasp, action, seed=trial)``), labels, failure reason, object id, scene seed, trial index,
 policy sources and the score the policy chose by; the collection config's hash is in the shard's meta.
+
+A round's policies come from :mod:`tognet.policies`, built from the round's policy name in one place
+(:func:`round_policies`); the executors that run jobs are :mod:`tognet.jobs`'.
 """
 
 from __future__ import annotations
@@ -18,26 +21,21 @@ import time
 import traceback
 import zlib
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from tognet.collect.config import CollectConfig, RoundPolicy
-from tognet.collect.policies import (
-    ActionPick,
-    CEMGrasp,
-    ExpertActions,
-    NMSGrasps,
-    NoActions,
-    PolicyActions,
-    SceneView,
-    UniformActions,
-    check_predictor_crops,
-    epsilon_mix,
-)
+from tognet.jobs.models import load_model
+from tognet.jobs.output import JobOutput
+from tognet.jobs.scenes import reset_scene
 from tognet.objects.record import ObjectRecord
+from tognet.policies.action import ExpertActions, NoActions, PolicyActions, UniformActions
+from tognet.policies.grasp import CEMGrasp, NMSGrasps
+from tognet.policies.mix import EpsilonGreedyActions, EpsilonGreedyGrasps, ExpertMixActions
+from tognet.policies.view import ActionPolicy, GraspPolicy, SceneView, check_predictor_crops
 
 #: The grasp-only task (no primitive): trains the task-agnostic Q_G model.
 GRASP_ONLY = "grasping"
@@ -68,28 +66,6 @@ class Job:
     def scene_seed(self, scene: int) -> int:
         """The simulator seed of the job's ``scene``-th scene (a 32-bit unsigned integer)."""
         return int(np.random.SeedSequence(self.seed(scene, 1)).generate_state(1)[0])
-
-
-@dataclass
-class JobOutput:
-    """What a job sends back: its records (columns, possibly empty), counters and any error."""
-
-    job: int
-    columns: dict[str, NDArray[Any]]
-    stats: dict[str, Any] = field(default_factory=dict)
-    error: str | None = None
-
-
-_MODELS: dict[str, Any] = {}
-
-
-def load_model(path: str) -> Any:
-    """A predictor for ``path``, loaded once per worker process."""
-    if path not in _MODELS:
-        from tognet.model.predict import TOGNetPredictor
-
-        _MODELS[path] = TOGNetPredictor.load(path)
-    return _MODELS[path]
 
 
 def plan_jobs(task: str, round_index: int, objects: list[ObjectRecord], episodes: int, policy: RoundPolicy,
@@ -142,19 +118,6 @@ def _progress(task: Any, result: Any) -> float:
     return value if np.isfinite(value) else -1.0
 
 
-def reset_scene(sim: Any, scene_seed: int, stats: Counter[str]) -> Any:
-    """``sim.reset(scene_seed)``, or None for a scene the simulator cannot set up (the object fell off the
-    table, an unstable drop), counted in ``stats`` (``bad_scenes`` and the reason) so the job goes on."""
-    from tognet.sim import SimulationError
-
-    try:
-        return sim.reset(scene_seed)
-    except SimulationError as exc:
-        stats["bad_scenes"] += 1
-        stats[f"bad_scene: {exc}"[:200]] += 1
-        return None
-
-
 def run_job(job: Job) -> JobOutput:
     """Run one job (in a worker): every scene and trial, labels from the simulator. Never raises for a bad
     object or scene: a job whose object cannot be simulated returns no records and the error."""
@@ -163,6 +126,30 @@ def run_job(job: Job) -> JobOutput:
     except Exception as exc:  # one bad object must never end a round
         detail = traceback.format_exception_only(type(exc), exc)[-1].strip()
         return JobOutput(job.index, {}, {"object": job.obj.object_id}, error=f"{job.obj.object_id}: {detail}")
+
+
+def round_policies(job: Job, sim: Any, grasp_model: Any = None, task_model: Any = None
+                   ) -> tuple[GraspPolicy, ActionPolicy]:
+    """The round's grasp and action policies, by its policy name (:data:`RoundPolicy`).
+
+    ``nms_uniform`` explores: NMS grasps (ranked by ``grasp_model``'s Q_G, else antipodal quality) and
+    uniform actions. ``epsilon_greedy`` is the task model's CEM grasp and noisy action mean, mixed with
+    that exploration per trial (epsilon_1, epsilon_2). Exploring actions are the simulator's expert ones
+    with probability ``expert_actions`` (tasks only; the grasp-only task has no action)."""
+    p = job.config.policy
+    explore_grasps = NMSGrasps(p, grasp_model)
+    explore_actions: ActionPolicy = NoActions() if job.task == GRASP_ONLY else UniformActions()
+    if job.task != GRASP_ONLY and p.expert_actions > 0:
+        explore_actions = ExpertMixActions(explore_actions, ExpertActions(sim), p.expert_actions)
+    if job.policy == "nms_uniform":
+        return explore_grasps, explore_actions
+    if job.policy != "epsilon_greedy":
+        raise ValueError(f"unknown round policy {job.policy!r}; use nms_uniform or epsilon_greedy")
+    if task_model is None:
+        raise ValueError("an epsilon-greedy round needs the last round's task model")
+    greedy_actions = PolicyActions(task_model, p.action_noise)
+    return (EpsilonGreedyGrasps(CEMGrasp(p, task_model), explore_grasps, p.epsilon_grasp),
+            EpsilonGreedyActions(greedy_actions, explore_actions, p.epsilon_action))
 
 
 def _run_job(job: Job) -> JobOutput:
@@ -178,14 +165,8 @@ def _run_job(job: Job) -> JobOutput:
     for model, what in ((grasp_model, job.grasp_model), (task_model, job.task_model)):
         if model is not None:
             check_predictor_crops(model, cfg.crop, str(what))
-    if job.policy == "epsilon_greedy" and task_model is None:
-        raise ValueError("an epsilon-greedy round needs the last round's task model")
     sim = Simulator(cfg.sim, job.task, job.obj)
-    nms_grasps = NMSGrasps(cfg.policy, grasp_model)
-    cem_grasp = CEMGrasp(cfg.policy, task_model) if task_model is not None else None
-    explore_actions = NoActions() if job.task == GRASP_ONLY else UniformActions()
-    policy_actions = PolicyActions(task_model, cfg.policy.action_noise) if task_model is not None else None
-    expert_actions = ExpertActions(sim) if job.task != GRASP_ONLY else None
+    grasp_policy, action_policy = round_policies(job, sim, grasp_model, task_model)
     parts: list[dict[str, NDArray[Any]]] = []
     stats: Counter[str] = Counter()
     trials = cfg.trials_per_scene
@@ -201,24 +182,9 @@ def _run_job(job: Job) -> JobOutput:
             stats["scenes_without_candidates"] += 1
             continue
         view = SceneView(scene, cands, sim.task, cfg.crop)
-        pick = nms_grasps(view, trials, rng)
-        if job.policy == "epsilon_greedy":
-            assert cem_grasp is not None and policy_actions is not None
-            explore = rng.random(trials) < cfg.policy.epsilon_grasp
-            pick = epsilon_mix(cem_grasp(view, trials, rng), pick, explore)
+        pick = grasp_policy(view, trials, rng)
         grasps = pick.grasps.astype(np.float32).astype(np.float64)  # as stored, so records replay exactly
-        acts = explore_actions(view, grasps, rng)
-        if expert_actions is not None and cfg.policy.expert_actions > 0:
-            expert = rng.random(trials) < cfg.policy.expert_actions
-            if expert.any():  # computed only for the trials that use them
-                chosen = expert_actions(view, grasps[expert], rng)
-                actions, source = acts.actions.copy(), acts.source.copy()
-                actions[expert], source[expert] = chosen.actions, chosen.source
-                acts = ActionPick(actions, source)
-        if job.policy == "epsilon_greedy":
-            assert policy_actions is not None
-            random_action = rng.random(trials) < cfg.policy.epsilon_action
-            acts = epsilon_mix(policy_actions(view, grasps, rng), acts, random_action)
+        acts = action_policy(view, grasps, rng)
         actions = acts.actions.astype(np.float32).astype(np.float64)
         results, kept = [], []
         for t in range(trials):

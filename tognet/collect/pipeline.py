@@ -26,8 +26,8 @@ from typing import Any
 from tognet.collect.config import PipelineConfig, RoundConfig
 from tognet.collect.jobs import GRASP_ONLY
 from tognet.collect.rounds import SUMMARY, collect_round
-from tognet.collect.workers import Executor, make_executor
 from tognet.errors import TognetError
+from tognet.jobs.workers import Executor, make_executor
 from tognet.objects.record import ObjectRecord
 
 DONE = "done.json"

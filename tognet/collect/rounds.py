@@ -9,7 +9,6 @@ missing (see :mod:`tognet.collect.store`), so the round ends with the records an
 
 from __future__ import annotations
 
-import hashlib
 import json
 import time
 from collections import Counter
@@ -20,22 +19,16 @@ from typing import Any
 import numpy as np
 
 from tognet.collect.config import CollectConfig, RoundConfig
-from tognet.collect.jobs import Job, JobOutput, plan_jobs
+from tognet.collect.jobs import Job, plan_jobs, run_job
 from tognet.collect.store import RoundStore
-from tognet.collect.workers import Executor, LocalExecutor
 from tognet.data.episodes import ACTION_SOURCES, FAILURE_CODES, GRASP_SOURCES, read_columns, shard_paths
 from tognet.errors import TognetError
+from tognet.io import file_digest
+from tognet.jobs.output import JobOutput
+from tognet.jobs.workers import Executor, LocalExecutor
 from tognet.objects.record import ObjectRecord
 
 SUMMARY = "summary.json"
-
-
-def file_digest(path: str | Path | None) -> str | None:
-    """sha256 (16 hex digits) of a file, or None."""
-    if path is None:
-        return None
-    digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
-    return digest[:16]
 
 
 #: A round whose first this-many jobs all fail stops (the settings are wrong, not the objects).
@@ -119,7 +112,7 @@ def collect_round(
             bar.set_postfix_str(tally.postfix(seconds), refresh=False)
 
     try:
-        executor.run(todo, on_result, log)
+        executor.run(todo, on_result, log, fn=run_job)
     finally:
         if bar is not None:
             bar.close()

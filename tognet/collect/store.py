@@ -28,13 +28,13 @@ from tognet.data.episodes import (
     check_columns,
     new_manifest,
     read_columns,
+    read_manifest,
     save_config,
+    summarise,
     write_manifest,
     write_shard,
 )
-from tognet.data.episodes import _read_manifest as read_manifest
-from tognet.data.episodes import _sha256 as sha256
-from tognet.data.episodes import _summarise as summarise
+from tognet.io import sha256_file
 
 SHARD_NAME = "shard-{:06d}.npz"
 
@@ -97,7 +97,8 @@ class RoundStore:
                 warnings.warn(f"{exc}; moved aside to {aside.name}, its job runs again", stacklevel=3)
                 continue
             self._entries[job] = {
-                "file": path.name, "count": int(cols["z"].shape[0]), "sha256": sha256(path), "meta": meta,
+                "file": path.name, "count": int(cols["z"].shape[0]), "sha256": sha256_file(path),
+                "meta": meta,
                 **{k: v for k, v in summarise(cols["valid"], cols["grasp_success"], cols["task_success"],
                                               cols["failure"]).items() if k != "episodes"},
             }

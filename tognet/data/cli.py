@@ -14,12 +14,12 @@ data_app = typer.Typer(help="Inspect and make episode datasets.", no_args_is_hel
 
 def _totals_from_shards(folder: Path) -> dict[str, object]:
     """Task and manifest-style totals of a dataset folder read from its shards' label columns."""
-    from tognet.data.episodes import DatasetError, _summarise, manifest_totals, read_columns, shard_paths
+    from tognet.data.episodes import DatasetError, manifest_totals, read_columns, shard_paths, summarise
 
     entries, tasks = [], set()
     for path in shard_paths(folder):
         cols, meta = read_columns(path, ("valid", "grasp_success", "task_success", "failure"))
-        entry = _summarise(cols["valid"], cols["grasp_success"], cols["task_success"], cols["failure"])
+        entry = summarise(cols["valid"], cols["grasp_success"], cols["task_success"], cols["failure"])
         entries.append({**entry, "count": entry["episodes"]})
         if meta.get("task") is not None:
             tasks.add(str(meta["task"]))

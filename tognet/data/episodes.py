@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import dataclasses
 import fcntl
-import hashlib
 import json
 import os
 import re
@@ -40,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from tognet.errors import TognetError
+from tognet.io import sha256_file
 from tognet.tasks.base import FailureReason
 
 #: Version of the shard/manifest layout; bump on any incompatible change.
@@ -146,10 +146,11 @@ class EpisodeArrays:
 
     def summary(self) -> dict[str, Any]:
         """Counts and success rates (over valid episodes), as JSON-ready numbers."""
-        return _summarise(self.valid, self.grasp_success, self.task_success, self.failure)
+        return summarise(self.valid, self.grasp_success, self.task_success, self.failure)
 
 
-def _summarise(valid: np.ndarray, s_g: np.ndarray, s_t: np.ndarray, failure: np.ndarray) -> dict[str, Any]:
+def summarise(valid: np.ndarray, s_g: np.ndarray, s_t: np.ndarray, failure: np.ndarray) -> dict[str, Any]:
+    """Counts and success rates (over valid episodes) of label columns, as a manifest's shard entry has."""
     ok = valid.astype(bool)
     n_valid = int(ok.sum())
     n_grasp = int((s_g.astype(bool) & ok).sum())
@@ -193,7 +194,8 @@ def _check_column(name: str, value: Any, n: int | None) -> np.ndarray:
     return arr
 
 
-def _atomic_write_bytes(path: Path, data: bytes) -> None:
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` whole or not at all (temporary file, fsync, rename)."""
     tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
     with open(tmp, "wb") as fh:
         fh.write(data)
@@ -202,15 +204,8 @@ def _atomic_write_bytes(path: Path, data: bytes) -> None:
     os.replace(tmp, path)
 
 
-def _sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
-def _read_manifest(folder: Path) -> dict[str, Any] | None:
+def read_manifest(folder: Path) -> dict[str, Any] | None:
+    """A dataset folder's manifest, checked to be a readable tognet one (None when the folder has none)."""
     path = folder / MANIFEST
     if not path.is_file():
         return None
@@ -255,7 +250,7 @@ def write_manifest(folder: Path, manifest: dict[str, Any]) -> None:
     manifest["format_version"] = FORMAT_VERSION
     manifest["totals"] = manifest_totals(manifest["shards"])
     data = json.dumps(manifest, indent=2) + "\n"
-    _atomic_write_bytes(Path(folder) / MANIFEST, data.encode())
+    atomic_write_bytes(Path(folder) / MANIFEST, data.encode())
 
 
 def save_config(folder: Path, manifest: dict[str, Any], name: str, cfg: Any, meta: Mapping[str, Any]) -> None:
@@ -277,7 +272,7 @@ def save_config(folder: Path, manifest: dict[str, Any], name: str, cfg: Any, met
             return
         k += 1
         stem = f"{name}-{k}"
-    _atomic_write_bytes(configs / f"{stem}.json", text.encode())
+    atomic_write_bytes(configs / f"{stem}.json", text.encode())
     entry = {"file": f"configs/{stem}.json", "name": name, "meta": dict(meta)}
     manifest.setdefault("configs", []).append(entry)
 
@@ -322,9 +317,9 @@ def write_shard(path: Path, columns: Mapping[str, np.ndarray], meta: Mapping[str
     return {
         "file": path.name,
         "count": count,
-        "sha256": _sha256(path),
+        "sha256": sha256_file(path),
         "meta": dict(meta),
-        **{k: v for k, v in _summarise(columns["valid"], columns["grasp_success"], columns["task_success"],
+        **{k: v for k, v in summarise(columns["valid"], columns["grasp_success"], columns["task_success"],
                                         columns["failure"]).items() if k != "episodes"},
     }
 
@@ -379,7 +374,7 @@ class ShardWriter:
 
     def _open(self) -> None:
         task = self.task
-        manifest = _read_manifest(self.out_dir)
+        manifest = read_manifest(self.out_dir)
         if manifest is None:
             manifest = new_manifest(task)
         elif manifest.get("task") != task:
@@ -496,7 +491,7 @@ def shard_paths(folder: str | Path) -> list[Path]:
     folder = Path(folder)
     if not folder.is_dir():
         raise DatasetError(f"{folder}: dataset folder not found")
-    manifest = _read_manifest(folder)
+    manifest = read_manifest(folder)
     if manifest is not None:
         listed = [folder / s["file"] for s in manifest["shards"]]
         orphans = sorted({p.name for p in folder.iterdir() if SHARD_PATTERN.match(p.name)}
@@ -510,7 +505,7 @@ def shard_paths(folder: str | Path) -> list[Path]:
 
 def dataset_task(folder: str | Path) -> str | None:
     """The task name recorded in a dataset folder's manifest (None without a manifest)."""
-    manifest = _read_manifest(Path(folder))
+    manifest = read_manifest(Path(folder))
     return None if manifest is None else str(manifest.get("task"))
 
 
@@ -537,7 +532,7 @@ def describe_dataset(dirs: str | Path | Iterable[str | Path]) -> dict[str, Any]:
     out = []
     for folder in expand_dataset_dirs(dirs):
         folder = Path(folder)
-        manifest = _read_manifest(folder) or {}
+        manifest = read_manifest(folder) or {}
         shards = [
             {k: s.get(k) for k in ("file", "count", "sha256")} for s in manifest.get("shards", [])
         ] or [{"file": p.name, "count": None, "sha256": None} for p in shard_paths(folder)]
@@ -557,7 +552,7 @@ def dataset_configs(
     (``configs/<name>.json`` listed in each manifest), as (file, fields without ``config_type``)."""
     out: list[tuple[Path, dict[str, Any]]] = []
     for folder in expand_dataset_dirs(dirs):
-        manifest = _read_manifest(Path(folder)) or {}
+        manifest = read_manifest(Path(folder)) or {}
         for entry in manifest.get("configs", []):
             path = Path(folder) / str(entry.get("file"))
             try:

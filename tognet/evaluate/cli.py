@@ -6,8 +6,15 @@ from pathlib import Path
 
 import typer
 
-from tognet.cliutil import TASKS_HELP, task_list, task_models, user_errors
-from tognet.collect.cli import RAY_ADDRESS_HELP, RAY_HELP, WORKERS_HELP
+from tognet.cliutil import (
+    RAY_ADDRESS_HELP,
+    RAY_HELP,
+    TASKS_HELP,
+    WORKERS_HELP,
+    task_list,
+    task_models,
+    user_errors,
+)
 
 
 @user_errors

@@ -11,8 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from tognet.collect.jobs import JobOutput
 from tognet.evaluate.config import EvalConfig
+from tognet.jobs.output import JobOutput
 from tognet.objects.record import ObjectRecord
 
 #: A colour per method (baselines cool and pale, ours strong, the Oracle dark and hatched).
@@ -117,10 +117,11 @@ def qualitative_figure(objects: Sequence[ObjectRecord], models: dict[str, Any], 
     the grasp-only model's Q_G) and each task's TOG-Net grasp (CEM on its Q_T) drawn on it; the same
     antipodal candidates start every search. ``models``: loaded predictors by name (``grasping`` and
     the registered tasks'; those present are drawn)."""
-    from tognet.collect.policies import CEMGrasp, SceneView
     from tognet.grasping.antipodal import sample_antipodal
     from tognet.grasping.depth import prepare_depth
     from tognet.grasping.draw import depth_to_rgb, jaw_endpoints
+    from tognet.policies.grasp import CEMGrasp
+    from tognet.policies.view import SceneView
     from tognet.sim import SimulationError, Simulator
     from tognet.tasks import TASK_NAMES
 
@@ -218,7 +219,7 @@ def animate_episode(config: EvalConfig, task: str, obj: ObjectRecord, scene_seed
 
 @dataclass(frozen=True)
 class GifJob:
-    """One episode to animate, as a job for the collection's executors (``index`` and ``obj``)."""
+    """One episode to animate, as a job for :mod:`tognet.jobs`' executors (``index`` and ``obj``)."""
 
     index: int
     obj: ObjectRecord

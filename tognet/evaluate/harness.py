@@ -12,7 +12,7 @@
       report.html, report.md   tognet.evaluate.report
 
 Killed at any moment and run again with ``resume=True`` and the same settings, it runs exactly the jobs
-that are missing. Jobs run on the collection's executors (local processes or Ray).
+that are missing. Jobs run on :mod:`tognet.jobs`' executors (local processes or Ray).
 """
 
 from __future__ import annotations
@@ -26,16 +26,16 @@ from typing import Any
 
 import numpy as np
 
-from tognet.collect.jobs import JobOutput
-from tognet.collect.rounds import file_digest
-from tognet.collect.workers import Executor, default_workers, make_executor
 from tognet.errors import TognetError
 from tognet.evaluate.config import CATEGORIES, EvalConfig
 from tognet.evaluate.jobs import EvalJob, plan_eval_jobs, run_eval_job
 from tognet.evaluate.stats import paired_difference, wilson
 from tognet.evaluate.store import EvalStore
+from tognet.io import file_digest
+from tognet.jobs.output import JobOutput
+from tognet.jobs.workers import Executor, default_workers, make_executor
 from tognet.objects.record import ObjectRecord
-from tognet.planning.planners import METHODS, NEEDS, check_methods
+from tognet.planning.methods import METHODS, NEEDS, check_methods
 
 SETTINGS = "evaluation.json"
 RESULTS = "results.json"
@@ -79,7 +79,7 @@ def resolve_models(tasks: Sequence[str], methods: Sequence[str], grasp_model: st
 
 def check_models(models: dict[str, Path]) -> None:
     """Each checkpoint is of the task it is given for (the grasp-only one of ``grasping``)."""
-    from tognet.collect.jobs import load_model
+    from tognet.jobs.models import load_model
 
     for name, path in models.items():
         trained = load_model(str(path)).task

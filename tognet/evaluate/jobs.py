@@ -1,6 +1,6 @@
 """The unit of evaluation work: one test object, a few scenes, every method on every scene.
 
-:func:`run_eval_job` runs in a collection worker (:mod:`tognet.collect.workers`, local process or Ray):
+:func:`run_eval_job` runs in a worker (:mod:`tognet.jobs.workers`, local process or Ray):
 it builds the simulator once, resets each scene from its seed, gives every method the same observation
 and a generator in the same state (so the model planners start from the same antipodal candidates), and
 executes each plan from the same settled scene with the same execution-noise seed. Comparisons between
@@ -24,8 +24,10 @@ from typing import Any
 
 import numpy as np
 
-from tognet.collect.jobs import JobOutput, load_model, reset_scene
 from tognet.evaluate.config import EvalConfig
+from tognet.jobs.models import load_model
+from tognet.jobs.output import JobOutput
+from tognet.jobs.scenes import reset_scene
 from tognet.objects.record import ObjectRecord
 
 UNREACHABLE = "unreachable"

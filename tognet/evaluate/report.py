@@ -249,7 +249,7 @@ def write_report(out: Path, results: dict[str, Any], records: Sequence[dict[str,
     }
     loaded = {}
     if models:
-        from tognet.collect.jobs import load_model
+        from tognet.jobs.models import load_model
 
         loaded = {name: load_model(str(path)) for name, path in models.items()}
     examples = [o for recs in objects.values() for o in recs[:2]][:6]
@@ -270,8 +270,8 @@ def _animations(out: Path, results: dict[str, Any], records: Sequence[dict[str, 
                 objects: dict[str, list[ObjectRecord]], config: EvalConfig, executor: Any,
                 log: Callable[[str], None]) -> tuple[dict[str, list[tuple[str, str, Path, str]]], str]:
     """A typical success and failure of each method per task, animated (GIFs in ``out/gifs``)."""
-    from tognet.collect.workers import LocalExecutor
     from tognet.evaluate.figures import GifJob, run_gif_job
+    from tognet.jobs.workers import LocalExecutor
 
     by_id = {o.object_id: o for recs in objects.values() for o in recs}
     jobs, meta = [], []

@@ -20,7 +20,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from tognet.data.episodes import _atomic_write_bytes
+from tognet.data.episodes import atomic_write_bytes
 from tognet.errors import TognetError
 
 META = "meta.json"
@@ -56,7 +56,7 @@ class EvalStore:
                 raise EvalStoreError(f"{path}: this folder holds an evaluation with other settings (differs "
                                      f"in {', '.join(keys)}); use another --out")
         else:
-            _atomic_write_bytes(path, (json.dumps(self.meta, indent=2) + "\n").encode())
+            atomic_write_bytes(path, (json.dumps(self.meta, indent=2) + "\n").encode())
         self._records: dict[int, list[dict[str, Any]]] = {}
         self._info: dict[int, dict[str, Any]] = {}
         for file in sorted(self.folder.glob("job-*.json")):
@@ -87,7 +87,7 @@ class EvalStore:
         if job in self._records:
             raise EvalStoreError(f"{self.folder}: job {job} is already written")
         payload = {"meta": self.meta, "job": int(job), "info": dict(info or {}), "records": records}
-        _atomic_write_bytes(self.folder / JOB_NAME.format(job), json.dumps(payload).encode())
+        atomic_write_bytes(self.folder / JOB_NAME.format(job), json.dumps(payload).encode())
         self._records[job] = records
         self._info[job] = dict(info or {})
 

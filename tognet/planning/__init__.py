@@ -5,7 +5,7 @@
     plan = planner(sim.reset(seed), np.random.default_rng(0))
     result = sim.execute(plan.grasp_pose, plan.action, seed=0)
 
-See :mod:`tognet.planning.planners` for what each method does.
+See :mod:`tognet.planning.methods` for what each method does (one row of a table each).
 
 On a user's own depth image and camera (no simulator): :mod:`tognet.planning.user` (``tognet plan``)::
 
@@ -18,15 +18,18 @@ from tognet.lazy_names import lazy_names
 
 if TYPE_CHECKING:
     from tognet.planning.config import OracleConfig, PlanConfig
-    from tognet.planning.plan import Plan, Planner, PlanningError
-    from tognet.planning.planners import (
+    from tognet.planning.methods import (
+        METHOD_TABLE,
         METHODS,
         NEEDS,
-        OraclePlanner,
-        PolicyPlanner,
+        Method,
+        MethodInputs,
         check_methods,
+        get_method,
         make_planner,
     )
+    from tognet.planning.plan import Plan, Planner, PlanningError
+    from tognet.planning.planners import OraclePlanner, PolicyPlanner
     from tognet.planning.user import PlannedGrasp, UserPlan, UserPlanConfig, UserPlanner, plan_image
 
 _WHERE = {
@@ -35,12 +38,16 @@ _WHERE = {
     "Plan": "tognet.planning.plan",
     "Planner": "tognet.planning.plan",
     "PlanningError": "tognet.planning.plan",
-    "METHODS": "tognet.planning.planners",
-    "NEEDS": "tognet.planning.planners",
+    "METHOD_TABLE": "tognet.planning.methods",
+    "METHODS": "tognet.planning.methods",
+    "NEEDS": "tognet.planning.methods",
+    "Method": "tognet.planning.methods",
+    "MethodInputs": "tognet.planning.methods",
+    "check_methods": "tognet.planning.methods",
+    "get_method": "tognet.planning.methods",
+    "make_planner": "tognet.planning.methods",
     "OraclePlanner": "tognet.planning.planners",
     "PolicyPlanner": "tognet.planning.planners",
-    "check_methods": "tognet.planning.planners",
-    "make_planner": "tognet.planning.planners",
     "PlannedGrasp": "tognet.planning.user",
     "UserPlan": "tognet.planning.user",
     "UserPlanConfig": "tognet.planning.user",
@@ -51,7 +58,10 @@ _WHERE = {
 __getattr__, __dir__ = lazy_names(__name__, _WHERE)
 
 __all__ = [
+    "METHOD_TABLE",
     "METHODS",
+    "Method",
+    "MethodInputs",
     "NEEDS",
     "OracleConfig",
     "OraclePlanner",
@@ -61,6 +71,7 @@ __all__ = [
     "PlanningError",
     "PolicyPlanner",
     "check_methods",
+    "get_method",
     "make_planner",
     "PlannedGrasp",
     "UserPlan",

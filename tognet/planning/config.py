@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from tognet.collect.config import PolicyConfig
 from tognet.config import Config, doc
 from tognet.grasping.antipodal import AntipodalConfig
 from tognet.grasping.crops import CropConfig
+from tognet.policies.config import PolicyConfig
 
 
 @dataclass(frozen=True)

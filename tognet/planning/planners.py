@@ -1,80 +1,31 @@
-"""The paper's methods and the Oracle behind one signature, built on the collection's policies.
+"""The two kinds of planner behind one signature: a grasp policy and an action policy on one observation
+(:class:`PolicyPlanner`, every model method and baseline), and the Oracle's search in the simulator
+(:class:`OraclePlanner`). Which method is which is declared in :mod:`tognet.planning.methods`.
 
-===================  ===========================================  ==========================================
-method               grasp                                        action
-===================  ===========================================  ==========================================
-Antipodal+Random     a random NMS mode of the antipodal           the baselines' random action (+-5 cm,
-                     candidates ranked by antipodal quality,      +-pi/20 around the task's nominal start)
-                     held either way round at random
-Task_Agn+Random      CEM on the grasp-only model's Q_G            the baselines' random action
-Task_Agn+Trained     CEM on the grasp-only model's Q_G            the task model's action mean at that grasp
-Task_Ori+Random      CEM on the task model's Q_T = Q_T|G * Q_G    the baselines' random action
-TOG-Net              CEM on the task model's Q_T                  the task model's action mean
-Oracle               simulator search: NMS modes both ways        hand-computed from the tool's pose in the
-                     round, each tried in the simulator           hand (tognet.sim.oracle), best found
-===================  ===========================================  ==========================================
-
-Every model planner samples the antipodal candidates first, so planners given generators in the same
-state see the same candidates (the evaluation does this: paired comparisons). The Oracle reads the
-simulator's ground truth and runs trials in it: an upper bound, not a method a robot could run.
+Every planner samples the antipodal candidates first, so planners given generators in the same state see
+the same candidates (the evaluation does this: paired comparisons). The Oracle reads the simulator's
+ground truth and runs trials in it: an upper bound, not a method a robot could run.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from tognet.collect.policies import (
-    BaselineRandomActions,
-    CEMGrasp,
-    NMSGrasps,
-    PolicyActions,
-    SceneView,
-    check_predictor_crops,
-)
 from tognet.geometry import Grasp
 from tognet.planning.config import PlanConfig
 from tognet.planning.plan import Plan, PlanningError
+from tognet.policies.grasp import NMSGrasps
+from tognet.policies.view import ActionPolicy, GraspPolicy, SceneView
 from tognet.tasks import Task
 
-#: The methods, in the order of the paper's figure (baselines, ours) and the Oracle last.
-METHODS = ("Antipodal+Random", "Task_Agn+Random", "Task_Agn+Trained", "Task_Ori+Random", "TOG-Net", "Oracle")
-#: Which models each method needs: "grasp" (the grasp-only Q_G model), "task" (the task's TOG-Net).
-NEEDS: dict[str, tuple[str, ...]] = {
-    "Antipodal+Random": (),
-    "Task_Agn+Random": ("grasp",),
-    "Task_Agn+Trained": ("grasp", "task"),
-    "Task_Ori+Random": ("task",),
-    "TOG-Net": ("task",),
-    "Oracle": (),
-}
 
-GraspPolicy = Callable[[SceneView, int, np.random.Generator], Any]
-ActionPolicy = Callable[[SceneView, NDArray[np.float64], np.random.Generator], Any]
-
-
-def check_methods(methods: list[str] | tuple[str, ...] | str) -> tuple[str, ...]:
-    """``"all"``, a comma-separated string or a list, as known method names (ValueError otherwise)."""
-    if isinstance(methods, str):
-        methods = list(METHODS) if methods.strip() == "all" else [m.strip() for m in methods.split(",")]
-    lower = {m.lower(): m for m in METHODS}
-    out = []
-    for m in methods:
-        if m.lower() not in lower:
-            raise ValueError(f"unknown method '{m}'; known: {', '.join(METHODS)} (or 'all')")
-        if lower[m.lower()] not in out:
-            out.append(lower[m.lower()])
-    if not out:
-        raise ValueError("no method given")
-    return tuple(out)
-
-
-def _scene_view(observation: Any, task: Task | None, config: PlanConfig, crop: Any, rng: np.random.Generator,
-                timing: dict[str, float]) -> SceneView:
+def _scene_view(observation: Any, task: Task | None, config: PlanConfig, crop: Any,
+                rng: np.random.Generator, timing: dict[str, float]) -> SceneView:
+    """The policies' view of an observation: its depth image prepared and antipodal candidates sampled."""
     from tognet.grasping.antipodal import sample_antipodal
     from tognet.grasping.depth import prepare_depth
 
@@ -89,7 +40,7 @@ def _scene_view(observation: Any, task: Task | None, config: PlanConfig, crop: A
 
 
 class PolicyPlanner:
-    """A grasp policy and an action policy of :mod:`tognet.collect.policies` on one observation.
+    """A grasp policy and an action policy (:mod:`tognet.policies`) on one observation.
 
     ``score_model``: a model whose prediction at the chosen grasp is reported in ``Plan.scores``
     (``q_g``, ``q_t_given_g``, ``q_t``: how the task model rates every method's grasp); not counted in
@@ -219,45 +170,3 @@ class OraclePlanner:
                     {"search_trials": trials, "candidates": len(view.candidates), "found": best is not None})
 
     __call__ = plan
-
-
-def make_planner(method: str, task: Task, *, grasp_model: Any = None, task_model: Any = None,
-                 config: PlanConfig | None = None, sim: Any = None) -> PolicyPlanner | OraclePlanner:
-    """The planner of ``method`` (one of :data:`METHODS`) for ``task``.
-
-    ``grasp_model`` / ``task_model``: predictors (:class:`tognet.model.predict.TOGNetPredictor`) of the
-    grasp-only and the task model, as the method needs (:data:`NEEDS`); ``sim``: the simulator, for the
-    Oracle only. A task model given to any method also rates its chosen grasp (``Plan.scores``). The crops
-    are ``config.crop`` or else the models' own (ValueError if they disagree)."""
-    (method,) = check_methods([method])
-    config = config or PlanConfig()
-    if method == "Oracle":
-        if sim is None:
-            raise ValueError("the Oracle needs the simulator (sim=...)")
-        return OraclePlanner(sim, config)
-    models = {"grasp": grasp_model, "task": task_model}
-    for need in NEEDS[method]:
-        if models[need] is None:
-            raise ValueError(f"{method} needs the {'grasp-only' if need == 'grasp' else task.name} model")
-    if task_model is not None and getattr(task_model, "task", task.name) not in (None, task.name):
-        raise ValueError(f"the task model was trained for {task_model.task}, not {task.name}")
-    used = [models[n] for n in NEEDS[method]] + ([task_model] if task_model is not None else [])
-    crop = config.crop
-    if crop is None:
-        from tognet.grasping.crops import CropConfig
-
-        known = [m.crop_config for m in used if getattr(m, "crop_config", None) is not None]
-        crop = known[0] if known else CropConfig()
-    for m in used:
-        check_predictor_crops(m, crop, f"{method}'s model")
-    policy = config.policy
-    grasp_policy: GraspPolicy
-    if method == "Antipodal+Random":
-        grasp_policy = NMSGrasps(policy)
-    elif method.startswith("Task_Agn"):
-        grasp_policy = CEMGrasp(policy, grasp_model, kind="grasp")
-    else:
-        grasp_policy = CEMGrasp(policy, task_model, kind="task")
-    trained = method.endswith("Trained") or method == "TOG-Net"
-    action_policy: ActionPolicy = PolicyActions(task_model) if trained else BaselineRandomActions()
-    return PolicyPlanner(method, task, grasp_policy, action_policy, config, crop, score_model=task_model)

@@ -18,11 +18,11 @@ Stages (each timed in ``plan.timing``):
 3. **objects**: what stands on the table (connected regions above it); none is an error, several give a
    warning and the plan is made on the largest (the others are replaced by the table).
 4. **candidates**: antipodal candidates (:func:`tognet.grasping.sample_antipodal`, both jaw orientations).
-5. **grasp**: the cross-entropy method on Q_T = Q_T|G * Q_G (:class:`tognet.collect.policies.CEMGrasp`, as the
+5. **grasp**: the cross-entropy method on Q_T = Q_T|G * Q_G (:class:`tognet.policies.grasp.CEMGrasp`, as the
    TOG-Net planner of the evaluation and the collection's greedy rounds), every evaluated grasp kept.
 6. **action**: the policy's mean at the chosen grasp and at the top-K alternatives (distinct grasps, by
    non-maximum suppression of everything the search scored), clipped to the task's action box
-   (:class:`tognet.collect.policies.PolicyActions`).
+   (:class:`tognet.policies.action.PolicyActions`).
 
 Crops are metric and taken from world heights, so any image size, intrinsics and camera height or tilt
 gives the network the inputs it was trained on; the network's other input, the gripper depth z, is taken
@@ -42,8 +42,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tognet.collect.config import PolicyConfig
-from tognet.collect.policies import CEMGrasp, PolicyActions, SceneView, check_predictor_crops
 from tognet.config import Config, doc
 from tognet.errors import TognetError
 from tognet.geometry import Camera, CameraIntrinsics, DepthImageError, validate_depth
@@ -64,6 +62,10 @@ from tognet.planning.camera import (
     plane_from_pose,
     segment_objects,
 )
+from tognet.policies.action import PolicyActions
+from tognet.policies.config import PolicyConfig
+from tognet.policies.grasp import CEMGrasp
+from tognet.policies.view import SceneView, check_predictor_crops
 from tognet.tasks import TASK_NAMES, Task, get_task
 
 #: The simulator's nominal camera height above the table (SimConfig().camera.position z), where every

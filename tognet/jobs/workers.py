@@ -1,7 +1,7 @@
 """Where jobs run: local worker processes by default, a Ray cluster when one machine is not enough.
 
-Both executors run the same :func:`tognet.collect.jobs.run_job` (or another module-level job function
-given as ``fn``, e.g. the evaluation's) and hand each :class:`JobOutput` to the coordinator's callback as
+Both executors run a module-level job function ``fn`` (collection's ``run_job``, the evaluation's
+``run_eval_job``, ...) on each job and hand each :class:`JobOutput` to the coordinator's callback as
 it arrives (in completion order; shards are named by job, so the order does not matter). A worker that
 dies (killed, out of memory, a crash inside MuJoCo) is reported and its jobs run again, up to
 ``max_retries`` times; after that the job is reported as failed and the round goes on.
@@ -16,7 +16,7 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Protocol
 
-from tognet.collect.jobs import JobOutput, run_job
+from tognet.jobs.output import JobOutput
 
 OnResult = Callable[[Any, JobOutput], None]
 #: A job function: a picklable module-level function of a job (anything with ``index`` and ``obj``).
@@ -24,11 +24,11 @@ JobFn = Callable[[Any], JobOutput]
 
 
 class Executor(Protocol):
-    """Runs jobs and calls ``on_result`` for each one's output, in the caller's thread."""
+    """Runs ``fn`` on each job and calls ``on_result`` with the job and its output, in the caller's thread."""
 
     workers: int
 
-    def run(self, jobs: list[Any], on_result: OnResult, log: Callable[[str], None], fn: JobFn = run_job
+    def run(self, jobs: list[Any], on_result: OnResult, log: Callable[[str], None], fn: JobFn
             ) -> None: ...
 
     def close(self) -> None: ...
@@ -71,7 +71,7 @@ class LocalExecutor:
         return ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
                                    initializer=_exit_with_parent, initargs=(os.getpid(),))
 
-    def run(self, jobs: list[Any], on_result: OnResult, log: Callable[[str], None], fn: JobFn = run_job
+    def run(self, jobs: list[Any], on_result: OnResult, log: Callable[[str], None], fn: JobFn
             ) -> None:
         if self.workers == 0:
             for job in jobs:
@@ -140,7 +140,7 @@ class RayExecutor:
         self.workers = int(ray.cluster_resources().get("CPU", 1))
         self._remotes: dict[JobFn, Any] = {}
 
-    def run(self, jobs: list[Any], on_result: OnResult, log: Callable[[str], None], fn: JobFn = run_job
+    def run(self, jobs: list[Any], on_result: OnResult, log: Callable[[str], None], fn: JobFn
             ) -> None:
         ray = self._ray
         if fn not in self._remotes:

@@ -1,0 +1,163 @@
+"""The direction of imports between tognet's packages, read from the source with ``ast`` (nothing imported).
+
+* Planning, evaluation, the policies and the job runner never import ``tognet.collect``: collection builds
+  its rounds out of them, not the other way round (module-level, lazy imports inside functions, relative
+  imports and module names given as strings to a lazy loader alike).
+* No module imports a private name (one starting with ``_``) of another tognet package.
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+import tognet
+
+ROOT = Path(tognet.__file__).resolve().parent
+#: Packages (and modules) that collection builds on, so they must not import it.
+BELOW_COLLECT = ("planning", "evaluate", "policies", "jobs", "io.py")
+MODULE_PATH = re.compile(r"tognet(\.[A-Za-z_]\w*)*")
+
+
+@dataclass(frozen=True)
+class Imported:
+    """One thing a module imports: the module's dotted name, the name taken from it (or None), the line."""
+
+    module: str
+    name: str | None
+    line: int
+
+    def targets(self) -> tuple[str, ...]:
+        """The dotted names this import may load: the module, and ``module.name`` (a submodule)."""
+        return (self.module,) if self.name is None else (self.module, f"{self.module}.{self.name}")
+
+
+def module_name(path: Path, root: Path = ROOT) -> str:
+    """``tognet.a.b`` of ``root/a/b.py`` (``tognet.a`` of ``root/a/__init__.py``)."""
+    parts = list(path.relative_to(root).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(["tognet", *parts])
+
+
+def imports(source: str, module: str, is_package: bool = False) -> list[Imported]:
+    """Everything ``module``'s source imports, wherever the statement is (functions included), with
+    relative imports resolved; strings that are a whole tognet module path count as imports of it (the
+    lazy loaders' tables, ``importlib.import_module``)."""
+    package = module if is_package else module.rpartition(".")[0]
+    found: list[Imported] = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            found += [Imported(a.name, None, node.lineno) for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = package.split(".")
+                anchor = anchor[: len(anchor) - (node.level - 1)]
+                base = ".".join([*anchor, base] if base else anchor)
+            found += [Imported(base, a.name, node.lineno) for a in node.names]
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str) and MODULE_PATH.fullmatch(
+                node.value):
+            found.append(Imported(node.value, None, node.lineno))
+    return found
+
+
+def top_package(dotted: str) -> str:
+    """``tognet.X`` of any ``tognet.X...`` name (a package or a module directly in tognet)."""
+    return ".".join(dotted.split(".")[:2])
+
+
+def collect_imports(source: str, module: str, is_package: bool = False) -> list[str]:
+    """Where ``module`` imports ``tognet.collect`` (``"line N: what"``)."""
+    found = []
+    for i in imports(source, module, is_package):
+        hit = [t for t in i.targets() if t == "tognet.collect" or t.startswith("tognet.collect.")]
+        if hit:
+            found.append(f"line {i.line}: {hit[-1]}")
+    return found
+
+
+def private_imports(source: str, module: str, is_package: bool = False) -> list[str]:
+    """Private names (and private modules) ``module`` imports from another tognet package."""
+    own = top_package(module)
+    out = []
+    for i in imports(source, module, is_package):
+        if not i.module.startswith("tognet.") or top_package(i.module) == own:
+            continue
+        private = [p for p in i.module.split(".")[1:] if p.startswith("_") and not p.startswith("__")]
+        if i.name is not None and i.name.startswith("_") and not i.name.startswith("__"):
+            private.append(i.name)
+        if private:
+            out.append(f"line {i.line}: {', '.join(private)} from {i.module}")
+    return out
+
+
+def modules(*under: str) -> list[Path]:
+    """The source files of the packages (or modules) ``under`` tognet/, or all of them."""
+    paths: list[Path] = []
+    for name in under or ("",):
+        where = ROOT / name
+        paths += [where] if where.is_file() else sorted(where.rglob("*.py"))
+    return paths
+
+
+def _check(paths: list[Path], finder: Callable[[str, str, bool], list[str]]) -> dict[str, list[str]]:
+    bad = {}
+    for path in paths:
+        found = finder(path.read_text(), module_name(path), path.name == "__init__.py")
+        if found:
+            bad[str(path.relative_to(ROOT.parent))] = found
+    return bad
+
+
+def test_planning_evaluate_policies_and_jobs_do_not_import_collect():
+    paths = modules(*BELOW_COLLECT)
+    assert len(paths) > 20  # the packages are where the test looks
+    assert _check(paths, collect_imports) == {}
+
+
+def test_no_module_imports_another_packages_private_names():
+    paths = modules()
+    assert len(paths) > 100
+    assert _check(paths, private_imports) == {}
+
+
+# --- the checks themselves catch what they are meant to ---------------------------------------------------
+@pytest.mark.parametrize("source", [
+    "from tognet.collect.jobs import run_job",
+    "import tognet.collect.rounds as rounds",
+    "def f():\n    from tognet.collect import collect_round\n    return collect_round",
+    "from tognet import collect",
+    "from ..collect import jobs",
+    "_WHERE = {'run_job': 'tognet.collect.jobs'}",
+    "import importlib\nm = importlib.import_module('tognet.collect')",
+])
+def test_an_import_of_collect_is_found_however_it_is_written(source):
+    assert collect_imports(source, "tognet.evaluate.harness")
+
+
+@pytest.mark.parametrize("source", [
+    "from tognet.jobs.workers import LocalExecutor",
+    "'''Runs in a worker (tognet.collect.workers is gone).'''",
+    "from .config import EvalConfig",
+])
+def test_imports_that_are_not_of_collect_pass(source):
+    assert not collect_imports(source, "tognet.evaluate.harness")
+
+
+def test_private_names_are_found_across_packages_only():
+    assert private_imports("from tognet.data.episodes import _sha256", "tognet.collect.store")
+    assert private_imports("def f():\n    from tognet.data.episodes import _x as x", "tognet.collect.store")
+    assert private_imports("from ..data.episodes import _read_manifest", "tognet.collect.store")
+    assert private_imports("from tognet.sim import _impl", "tognet.collect.jobs")
+    assert private_imports("import tognet.sim._impl", "tognet.collect.jobs")
+    assert not private_imports("from tognet.data.episodes import _summarise", "tognet.data.cli")
+    assert not private_imports("from .episodes import _summarise", "tognet.data.cli")
+    assert not private_imports("from tognet.data.episodes import summarise", "tognet.collect.store")
+    assert not private_imports("from tognet.data import __doc__", "tognet.collect.store")
+    assert not private_imports("from typing import _T", "tognet.collect.store")

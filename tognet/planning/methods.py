@@ -1,0 +1,178 @@
+"""The evaluation's methods, each declared once: which models it needs, how its grasp and action policies
+are built, and what kind of method it is.
+
+===================  ===========================================  ==========================================
+method               grasp                                        action
+===================  ===========================================  ==========================================
+Antipodal+Random     a random NMS mode of the antipodal           the baselines' random action (+-5 cm,
+                     candidates ranked by antipodal quality,      +-pi/20 around the task's nominal start)
+                     held either way round at random
+Task_Agn+Random      CEM on the grasp-only model's Q_G            the baselines' random action
+Task_Agn+Trained     CEM on the grasp-only model's Q_G            the task model's action mean at that grasp
+Task_Ori+Random      CEM on the task model's Q_T = Q_T|G * Q_G    the baselines' random action
+TOG-Net              CEM on the task model's Q_T                  the task model's action mean
+Oracle               simulator search: NMS modes both ways        hand-computed from the tool's pose in the
+                     round, each tried in the simulator           hand (tognet.sim.oracle), best found
+===================  ===========================================  ==========================================
+
+A method is a row of :data:`METHOD_TABLE` (a :class:`Method`): adding one is adding a row. Its kind says
+what the evaluation may compare it with: ``baseline`` (the paper's), ``ours`` (TOG-Net), ``oracle`` (the
+simulator's search, an upper bound) or ``diagnostic`` (uses the simulator's ground truth for one half of
+the plan, to tell which half limits a method; neither a baseline nor deployable). Methods of the last two
+kinds need the simulator.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Literal
+
+from tognet.planning.config import PlanConfig
+from tognet.planning.plan import Planner
+from tognet.planning.planners import OraclePlanner, PolicyPlanner
+from tognet.policies.action import BaselineRandomActions, PolicyActions
+from tognet.policies.grasp import CEMGrasp, NMSGrasps
+from tognet.policies.view import ActionPolicy, GraspPolicy, check_predictor_crops
+from tognet.tasks import Task
+
+#: The models a method can need: "grasp" (the grasp-only Q_G model), "task" (the task's TOG-Net).
+ModelName = Literal["grasp", "task"]
+#: What a method is (see the module docstring).
+MethodKind = Literal["baseline", "ours", "oracle", "diagnostic"]
+
+
+@dataclass(frozen=True)
+class MethodInputs:
+    """What a method's policies (or planner) are built from."""
+
+    task: Task
+    config: PlanConfig
+    grasp_model: Any = None
+    task_model: Any = None
+    sim: Any = None
+
+
+@dataclass(frozen=True)
+class Method:
+    """One method: its name, kind and models, and either its grasp and action policies (planned by a
+    :class:`PolicyPlanner`) or a planner of its own (``planner``: a joint search such as the Oracle's)."""
+
+    name: str
+    kind: MethodKind
+    needs: tuple[ModelName, ...] = ()
+    grasp: Callable[[MethodInputs], GraspPolicy] | None = None
+    action: Callable[[MethodInputs], ActionPolicy] | None = None
+    planner: Callable[[MethodInputs], Planner] | None = None
+
+    def __post_init__(self) -> None:
+        parts = (self.grasp is not None, self.action is not None)
+        if parts != ((True, True) if self.planner is None else (False, False)):
+            raise ValueError(f"method {self.name!r}: give a grasp and an action policy, or a planner")
+
+    @property
+    def baseline(self) -> bool:
+        """One of the paper's baselines."""
+        return self.kind == "baseline"
+
+    @property
+    def uses_sim(self) -> bool:
+        """Reads the simulator's ground truth (the Oracle, the diagnostics): not a method a robot runs."""
+        return self.kind in ("oracle", "diagnostic")
+
+
+def _nms_antipodal(i: MethodInputs) -> GraspPolicy:
+    return NMSGrasps(i.config.policy)
+
+
+def _cem_q_g(i: MethodInputs) -> GraspPolicy:
+    return CEMGrasp(i.config.policy, i.grasp_model, kind="grasp")
+
+
+def _cem_q_t(i: MethodInputs) -> GraspPolicy:
+    return CEMGrasp(i.config.policy, i.task_model, kind="task")
+
+
+def _random_actions(i: MethodInputs) -> ActionPolicy:
+    return BaselineRandomActions()
+
+
+def _policy_mean(i: MethodInputs) -> ActionPolicy:
+    return PolicyActions(i.task_model)
+
+
+def _oracle(i: MethodInputs) -> Planner:
+    return OraclePlanner(i.sim, i.config)
+
+
+#: Every method, in the order of the paper's figure (baselines, ours) and the Oracle last.
+METHOD_TABLE: tuple[Method, ...] = (
+    Method("Antipodal+Random", "baseline", (), grasp=_nms_antipodal, action=_random_actions),
+    Method("Task_Agn+Random", "baseline", ("grasp",), grasp=_cem_q_g, action=_random_actions),
+    Method("Task_Agn+Trained", "baseline", ("grasp", "task"), grasp=_cem_q_g, action=_policy_mean),
+    Method("Task_Ori+Random", "baseline", ("task",), grasp=_cem_q_t, action=_random_actions),
+    Method("TOG-Net", "ours", ("task",), grasp=_cem_q_t, action=_policy_mean),
+    Method("Oracle", "oracle", (), planner=_oracle),
+)
+#: The methods' names, in the table's order.
+METHODS: tuple[str, ...] = tuple(m.name for m in METHOD_TABLE)
+#: Which models each method needs.
+NEEDS: dict[str, tuple[ModelName, ...]] = {m.name: m.needs for m in METHOD_TABLE}
+
+
+def get_method(name: str) -> Method:
+    """The table's row of ``name`` (case-insensitive; ValueError for an unknown one)."""
+    (known,) = check_methods([name])
+    return next(m for m in METHOD_TABLE if m.name == known)
+
+
+def check_methods(methods: list[str] | tuple[str, ...] | str) -> tuple[str, ...]:
+    """``"all"``, a comma-separated string or a list, as known method names (ValueError otherwise)."""
+    if isinstance(methods, str):
+        methods = list(METHODS) if methods.strip() == "all" else [m.strip() for m in methods.split(",")]
+    lower = {m.lower(): m for m in METHODS}
+    out = []
+    for m in methods:
+        if m.lower() not in lower:
+            raise ValueError(f"unknown method '{m}'; known: {', '.join(METHODS)} (or 'all')")
+        if lower[m.lower()] not in out:
+            out.append(lower[m.lower()])
+    if not out:
+        raise ValueError("no method given")
+    return tuple(out)
+
+
+def make_planner(method: str | Method, task: Task, *, grasp_model: Any = None, task_model: Any = None,
+                 config: PlanConfig | None = None, sim: Any = None) -> Planner:
+    """The planner of ``method`` (a name of :data:`METHODS`, or a :class:`Method`) for ``task``.
+
+    ``grasp_model`` / ``task_model``: predictors (:class:`tognet.model.predict.TOGNetPredictor`) of the
+    grasp-only and the task model, as the method needs (:data:`NEEDS`); ``sim``: the simulator, for the
+    methods that use it (the Oracle, the diagnostics). A task model given to a policy method also rates
+    its chosen grasp (``Plan.scores``). The crops are ``config.crop`` or else the models' own (ValueError
+    if they disagree)."""
+    row = method if isinstance(method, Method) else get_method(method)
+    config = config or PlanConfig()
+    if row.uses_sim and sim is None:
+        raise ValueError(f"{row.name} needs the simulator (sim=...)")
+    models = {"grasp": grasp_model, "task": task_model}
+    for need in row.needs:
+        if models[need] is None:
+            raise ValueError(f"{row.name} needs the {'grasp-only' if need == 'grasp' else task.name} model")
+    inputs = MethodInputs(task, config, grasp_model, task_model, sim)
+    if row.planner is not None:  # a planner of its own (the Oracle's search: no model, no crops)
+        return row.planner(inputs)
+    assert row.grasp is not None and row.action is not None
+    if task_model is not None and getattr(task_model, "task", task.name) not in (None, task.name):
+        raise ValueError(f"the task model was trained for {task_model.task}, not {task.name}")
+    used = [models[n] for n in row.needs] + ([task_model] if task_model is not None else [])
+    crop = config.crop
+    if crop is None:
+        from tognet.grasping.crops import CropConfig
+
+        known = [m.crop_config for m in used if getattr(m, "crop_config", None) is not None]
+        crop = known[0] if known else CropConfig()
+    for m in used:
+        check_predictor_crops(m, crop, f"{row.name}'s model")
+    return PolicyPlanner(row.name, task, row.grasp(inputs), row.action(inputs), config, crop,
+                         score_model=task_model)
