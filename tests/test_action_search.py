@@ -55,6 +55,7 @@ def hammer(tmp_path_factory):
     crop = CropConfig()
     low, high = sim.task.action_low, sim.task.action_high
     with ShardWriter(root / "data", "hammering", configs={"crop": crop}) as writer:
+        rng = np.random.default_rng(0)
         for seed in range(28):
             view, grasps = _scene(sim, seed, crop)
             good = sim.props.check_action("far_end")
@@ -62,6 +63,9 @@ def hammer(tmp_path_factory):
             for off in (*OK.values(), *BAD.values()):
                 rows.append(grasps["far_end"].as_array())
                 acts.append(np.clip(good + np.asarray(off), low, high))
+            for _ in range(3):  # the rest of the box, as collection's uniform exploration sees it
+                rows.append(grasps["far_end"].as_array())
+                acts.append(sim.task.uniform_action(rng))
             rows.append(grasps["head"].as_array())
             acts.append(sim.props.check_action("head"))
             g = np.asarray(rows, np.float32).astype(np.float64)
@@ -108,7 +112,7 @@ def test_search_finds_a_working_action_for_the_far_end_grasp(hammer):
     crops, z = view.crops(g)
     res = search(model, crops, z, sim.task.action_low, sim.task.action_high, ActionSearchConfig(),
                  np.random.default_rng(0))
-    assert sim.execute(grasps["far_end"], res.actions[0], 0).task_success
+    assert sim.execute(grasps["far_end"], res.actions[0], 0).task_success, res.actions[0]
     assert 0.0 <= res.q_t[0] <= 1.0 and len(res.rating) == 1
 
 

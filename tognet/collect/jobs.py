@@ -33,6 +33,7 @@ from tognet.jobs.output import JobOutput
 from tognet.jobs.scenes import reset_scene
 from tognet.objects.record import ObjectRecord
 from tognet.policies.action import ExpertActions, NoActions, PolicyActions, UniformActions
+from tognet.policies.action_search import ActionSearchActions, ActionSearchGrasps
 from tognet.policies.grasp import CEMGrasp, NMSGrasps
 from tognet.policies.mix import EpsilonGreedyActions, EpsilonGreedyGrasps, ExpertMixActions
 from tognet.policies.view import ActionPolicy, GraspPolicy, SceneView, check_predictor_crops
@@ -134,8 +135,10 @@ def round_policies(job: Job, sim: Any, grasp_model: Any = None, task_model: Any 
 
     ``nms_uniform`` explores: NMS grasps (ranked by ``grasp_model``'s Q_G, else antipodal quality) and
     uniform actions. ``epsilon_greedy`` is the task model's CEM grasp and noisy action mean, mixed with
-    that exploration per trial (epsilon_1, epsilon_2). Exploring actions are the simulator's expert ones
-    with probability ``expert_actions`` (tasks only; the grasp-only task has no action)."""
+    that exploration per trial (epsilon_1, epsilon_2); with a model whose task stream sees the action, the
+    greedy grasp and action are the learned action search's (:mod:`tognet.policies.action_search`).
+    Exploring actions are the simulator's expert ones with probability ``expert_actions`` (tasks only;
+    the grasp-only task has no action)."""
     p = job.config.policy
     explore_grasps = NMSGrasps(p, grasp_model)
     explore_actions: ActionPolicy = NoActions() if job.task == GRASP_ONLY else UniformActions()
@@ -147,8 +150,15 @@ def round_policies(job: Job, sim: Any, grasp_model: Any = None, task_model: Any 
         raise ValueError(f"unknown round policy {job.policy!r}; use nms_uniform or epsilon_greedy")
     if task_model is None:
         raise ValueError("an epsilon-greedy round needs the last round's task model")
-    greedy_actions = PolicyActions(task_model, p.action_noise)
-    return (EpsilonGreedyGrasps(CEMGrasp(p, task_model), explore_grasps, p.epsilon_grasp),
+    greedy_grasps: GraspPolicy
+    greedy_actions: ActionPolicy
+    if getattr(task_model, "action_conditioned", False):  # the learned action search's model
+        greedy_grasps = ActionSearchGrasps(task_model, p.action_search)
+        greedy_actions = ActionSearchActions(task_model, p.action_search, p.action_noise)
+    else:
+        greedy_grasps = CEMGrasp(p, task_model)
+        greedy_actions = PolicyActions(task_model, p.action_noise)
+    return (EpsilonGreedyGrasps(greedy_grasps, explore_grasps, p.epsilon_grasp),
             EpsilonGreedyActions(greedy_actions, explore_actions, p.epsilon_action))
 
 

@@ -27,41 +27,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tognet.config import Config, doc
 from tognet.data.episodes import ACTION_SOURCES, GRASP_SOURCES
+from tognet.policies.config import ActionSearchConfig
 from tognet.policies.view import ActionPick, GraspPick, SceneView
-
-
-@dataclass(frozen=True)
-class ActionSearchConfig(Config):
-    """The learned action search's sampling (see the module docstring)."""
-
-    rate_samples: int = doc(
-        48,
-        "Actions scored per candidate grasp to rate it (its action mean included): enough to find the "
-        "working region of the box for most grasps at a fraction of a millisecond per candidate.",
-    )
-    local_fraction: float = doc(
-        0.5, "Share of the rating actions drawn around the candidate's action mean (the rest: the box)."
-    )
-    local_std: tuple[float, float, float, float] = doc(
-        (0.02, 0.02, 0.01, 0.08),
-        "Std-dev of the rating draws around the action mean (a_x, a_y, a_z m; a_phi rad): about the "
-        "collection policy's noise, where the data is densest.",
-    )
-    refine_grasps: int = doc(4, "Best-rated candidates whose action is then searched by CEM.")
-    iterations: int = doc(3, "CEM refits of the action (the paper's grasp CEM has 3).")
-    samples: int = doc(64, "Actions drawn per CEM iteration.")
-    elite_fraction: float = doc(0.25, "Share of the drawn actions kept to refit the Gaussian.")
-    min_std: tuple[float, float, float, float] = doc(
-        (0.004, 0.004, 0.002, 0.02),
-        "Floor of the CEM's std-dev per dimension, so the search does not collapse onto one draw.",
-    )
-    progress_weight: float = doc(
-        0.1,
-        "Weight of the predicted progress added to the predicted success when ordering actions: breaks "
-        "ties where every action is unlikely to succeed, small enough not to trade success for it.",
-    )
 
 
 @dataclass(frozen=True)
