@@ -44,13 +44,15 @@ def task_list(spec: str) -> list[str]:
 
 
 def task_models(pairs: list[str]) -> dict[str, Path]:
-    """``--task-model NAME=PATH`` options as {task: checkpoint}."""
+    """``--task-model NAME=PATH`` options as {name: checkpoint}: NAME a task (its TOG-Net) or
+    ``<task>_search`` (its action-conditioned model, for TOG-Net+ActionSearch)."""
     out: dict[str, Path] = {}
     for pair in pairs:
         name, sep, path = pair.partition("=")
         if not sep or not name or not path:
             raise ValueError(f"--task-model takes NAME=PATH, got '{pair}'")
-        out[task_list(name)[0]] = Path(path)
+        suffix = "_search" if name.endswith("_search") else ""
+        out[task_list(name.removesuffix(suffix))[0] + suffix] = Path(path)
     return out
 
 

@@ -15,14 +15,15 @@ from tognet.cliutil import (
     task_models,
     user_errors,
 )
+from tognet.planning.method_names import METHOD_NAMES
 
 
 @user_errors
 def evaluate_cmd(
     task: str = typer.Option(..., "--task", help=TASKS_HELP),
     methods: str = typer.Option("all", "--methods", help="'all' or a comma-separated list of: "
-                                "Antipodal+Random, Task_Agn+Random, Task_Agn+Trained, Task_Ori+Random, "
-                                "TOG-Net, Oracle."),
+                                f"{', '.join(METHOD_NAMES)}. The last two are diagnostics (the simulator's "
+                                "ground truth for one half of the plan), never baselines."),
     category: list[str] = typer.Option([], "--category", help="pg-primitive, pg-complex or realistic (repeat "
                                        "for several; default: all three unless --objects is given)."),
     objects: list[Path] = typer.Option([], "--objects", help="An object set folder of your own: a category "
@@ -37,7 +38,9 @@ def evaluate_cmd(
     hammering_model: Path | None = typer.Option(None, "--hammering-model", help="Hammering TOG-Net "
                                                 "checkpoint (default: the shipped one)."),
     task_model: list[str] = typer.Option([], "--task-model", metavar="NAME=PATH", help="A task's TOG-Net "
-                                         "checkpoint, for any registered task (repeat for several)."),
+                                         "checkpoint, for any registered task, or NAME=<task>_search: its "
+                                         "action-conditioned model for TOG-Net+ActionSearch (repeat for "
+                                         "several)."),
     test_objects: int | None = typer.Option(None, "--test-objects", min=1, help="Test objects per category "
                                             "at most (default: a new one per job)."),
     scenes_per_job: int | None = typer.Option(None, "--scenes-per-job", min=1, help="Scenes per job (one "

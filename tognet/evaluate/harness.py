@@ -52,20 +52,33 @@ class SettingsChanged(EvalError):
     """``--resume`` on a folder whose evaluation was started with other settings (models, config...)."""
 
 
+def search_name(task: str) -> str:
+    """The models-dict name of a task's action-conditioned model (the learned action search's)."""
+    return f"{task}_search"
+
+
 def resolve_models(tasks: Sequence[str], methods: Sequence[str], grasp_model: str | Path | None = None,
                    task_models: dict[str, str | Path | None] | None = None) -> dict[str, Path]:
-    """The checkpoint paths the methods need: ``grasping`` and each task's (the shipped ones unless given).
-    A task model that is not needed but is given (or shipped) is kept too, for the qualitative figure."""
+    """The checkpoint paths the methods need: ``grasping``, each task's and, for the learned action search,
+    each task's ``<task>_search`` (the shipped ones unless given). A task model that is not needed but is
+    given (or shipped) is kept too, for the qualitative figure."""
     from tognet.models import default_checkpoint
 
     task_models = task_models or {}
     needs = {n for m in methods for n in NEEDS[m]}
     wanted: dict[str, str | Path | None] = {"grasping": grasp_model, **{t: task_models.get(t) for t in tasks}}
+    wanted.update({search_name(t): task_models.get(search_name(t)) for t in tasks})
     for other, path in task_models.items():
         wanted.setdefault(other, path)
+    searched = {search_name(t) for t in tasks}
     out: dict[str, Path] = {}
     for name, path in wanted.items():
-        required = ("grasp" in needs) if name == "grasping" else (name in tasks and "task" in needs)
+        if name == "grasping":
+            required = "grasp" in needs
+        elif name in searched:
+            required = "search" in needs
+        else:
+            required = name in tasks and "task" in needs
         if path is None:
             if not required:
                 continue
@@ -78,13 +91,18 @@ def resolve_models(tasks: Sequence[str], methods: Sequence[str], grasp_model: st
 
 
 def check_models(models: dict[str, Path]) -> None:
-    """Each checkpoint is of the task it is given for (the grasp-only one of ``grasping``)."""
+    """Each checkpoint is of the task it is given for (the grasp-only one of ``grasping``; a
+    ``<task>_search`` one of the task, with a task stream that sees the action)."""
     from tognet.jobs.models import load_model
 
     for name, path in models.items():
-        trained = load_model(str(path)).task
-        if trained is not None and trained != name:
-            raise EvalError(f"{path}: a {trained} model, given as the {name} model")
+        model = load_model(str(path))
+        task = name.removesuffix("_search")
+        if model.task is not None and model.task != task:
+            raise EvalError(f"{path}: a {model.task} model, given as the {name} model")
+        if name != task and not model.action_conditioned:
+            raise EvalError(f"{path}: given as the {name} model, but its task stream does not see the action "
+                            "(train it with ArchConfig.task_head='action')")
 
 
 def test_objects(category: str, count: int, out: Path, workers: int = 1, progress: bool = True,
@@ -213,12 +231,13 @@ def run_evaluation(
             for cat, recs in objects.items():
                 grasp = str(models["grasping"]) if "grasping" in models else None
                 tmodel = str(models[task]) if task in models else None
-                planned = plan_eval_jobs(task, cat, recs, episodes, methods, config, grasp, tmodel)
+                smodel = str(models[search_name(task)]) if search_name(task) in models else None
+                planned = plan_eval_jobs(task, cat, recs, episodes, methods, config, grasp, tmodel, smodel)
                 meta = {"task": task, "category": cat, "methods": list(methods), "episodes": episodes,
                         "config_hash": config.fingerprint(), "jobs": len(planned),
                         "objects": sorted({j.obj.object_id for j in planned}),
-                        "models": {k: settings["models"][k]["sha256"] for k in ("grasping", task)
-                                   if k in settings["models"]}}
+                        "models": {k: settings["models"][k]["sha256"]
+                                   for k in ("grasping", task, search_name(task)) if k in settings["models"]}}
                 store = stores[(task, cat)] = EvalStore(out / task / cat, meta)
                 jobs += [j for j in planned if j.index not in store.done]
         total = len(tasks) * len(objects) * episodes * len(methods)

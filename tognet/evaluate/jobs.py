@@ -47,6 +47,7 @@ class EvalJob:
     config: EvalConfig
     grasp_model: str | None = None
     task_model: str | None = None
+    search_model: str | None = None
 
     @property
     def planned(self) -> int:
@@ -65,7 +66,7 @@ class EvalJob:
 
 def plan_eval_jobs(task: str, category: str, objects: list[ObjectRecord], episodes: int,
                    methods: tuple[str, ...], config: EvalConfig, grasp_model: str | None = None,
-                   task_model: str | None = None) -> list[EvalJob]:
+                   task_model: str | None = None, search_model: str | None = None) -> list[EvalJob]:
     """Jobs for ``episodes`` scenes (per method) of one category: objects in a seeded order, each job a
     new object until every object has one, then around again."""
     if not objects:
@@ -75,7 +76,7 @@ def plan_eval_jobs(task: str, category: str, objects: list[ObjectRecord], episod
     rng = np.random.default_rng([config.seed, zlib.crc32(task.encode()), zlib.crc32(category.encode()), 7])
     order = np.concatenate([rng.permutation(len(objects)) for _ in range(-(-n_jobs // len(objects)))])
     return [EvalJob(task, category, j, objects[int(order[j])], min(spj, episodes - j * spj), methods, config,
-                    grasp_model, task_model) for j in range(n_jobs)]
+                    grasp_model, task_model, search_model) for j in range(n_jobs)]
 
 
 def _pose(sim: Any) -> list[float]:
@@ -109,8 +110,10 @@ def _run_eval_job(job: EvalJob) -> JobOutput:
     sim = Simulator(job.config.sim, job.task, job.obj)
     grasp_model = load_model(job.grasp_model) if job.grasp_model else None
     task_model = load_model(job.task_model) if job.task_model else None
+    search_model = load_model(job.search_model) if job.search_model else None
     planners = {m: make_planner(m, sim.task, grasp_model=grasp_model, task_model=task_model,
-                                config=job.config.plan, sim=sim) for m in job.methods}
+                                config=job.config.plan, sim=sim, search_model=search_model)
+                for m in job.methods}
     records: list[dict[str, Any]] = []
     stats: Counter[str] = Counter()
     for s in range(job.scenes):

@@ -4,6 +4,8 @@
     tognet/models/sweeping.pt    TOG-Net for sweeping (Q_G, Q_T|G, action mean)
     tognet/models/hammering.pt   TOG-Net for hammering
     tognet/models/pulling.pt     TOG-Net for pulling (the plug-in third task)
+    tognet/models/<task>_search.pt  the task's action-conditioned model (the learned action search,
+                                 beyond the paper: method TOG-Net+ActionSearch)
     tognet/models/<name>.json    each one's run summary (how it was trained, held-out metrics)
 
 They come from the ``quick`` self-supervision pipeline (``tognet pipeline --task both --preset quick``):
@@ -20,7 +22,8 @@ from pathlib import Path
 from tognet.errors import TognetError
 
 MODELS_DIR = Path(__file__).resolve().parent
-NAMES = ("grasping", "sweeping", "hammering", "pulling")
+NAMES = ("grasping", "sweeping", "hammering", "pulling", "sweeping_search", "hammering_search",
+         "pulling_search")
 
 
 def default_checkpoint(name: str) -> Path:

@@ -11,9 +11,22 @@ Task_Agn+Random      CEM on the grasp-only model's Q_G            the baselines'
 Task_Agn+Trained     CEM on the grasp-only model's Q_G            the task model's action mean at that grasp
 Task_Ori+Random      CEM on the task model's Q_T = Q_T|G * Q_G    the baselines' random action
 TOG-Net              CEM on the task model's Q_T                  the task model's action mean
+TOG-Net+ActionSearch the best candidate by Q_G * max_a Q_T|G,a    CEM on Q_T|G,a at that grasp (the action-
+                     (the action-conditioned model, beyond the    conditioned model; tognet.policies.
+                     paper)                                       action_search)
 Oracle               simulator search: NMS modes both ways        hand-computed from the tool's pose in the
                      round, each tried in the simulator           hand (tognet.sim.oracle), best found
 ===================  ===========================================  ==========================================
+
+Two diagnostic rows split the gap between TOG-Net and the Oracle into its grasp and its motion (they read
+the simulator's ground truth; never baselines, never deployable):
+
+==============================  ==================================  ========================================
+diagnostic                      grasp                               action
+==============================  ==================================  ========================================
+TOG-Net grasp + Oracle motion   TOG-Net's (CEM on Q_T)              the Oracle's action search from it
+Oracle grasp + TOG-Net motion   the Oracle's (its whole search)     the task model's action mean at it
+==============================  ==================================  ========================================
 
 A method is a row of :data:`METHOD_TABLE` (a :class:`Method`): adding one is adding a row. Its kind says
 what the evaluation may compare it with: ``baseline`` (the paper's), ``ours`` (TOG-Net), ``oracle`` (the
@@ -24,20 +37,24 @@ kinds need the simulator.
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Literal
 
 from tognet.planning.config import PlanConfig
+from tognet.planning.method_names import DIAGNOSTIC_NAMES, METHOD_NAMES
 from tognet.planning.plan import Planner
-from tognet.planning.planners import OraclePlanner, PolicyPlanner
+from tognet.planning.planners import OracleActions, OracleGrasp, OraclePlanner, PolicyPlanner
 from tognet.policies.action import BaselineRandomActions, PolicyActions
+from tognet.policies.action_search import ActionSearchActions, ActionSearchGrasps
 from tognet.policies.grasp import CEMGrasp, NMSGrasps
 from tognet.policies.view import ActionPolicy, GraspPolicy, check_predictor_crops
 from tognet.tasks import Task
 
-#: The models a method can need: "grasp" (the grasp-only Q_G model), "task" (the task's TOG-Net).
-ModelName = Literal["grasp", "task"]
+#: The models a method can need: "grasp" (the grasp-only Q_G model), "task" (the task's TOG-Net),
+#: "search" (the task's action-conditioned model, for the learned action search).
+ModelName = Literal["grasp", "task", "search"]
 #: What a method is (see the module docstring).
 MethodKind = Literal["baseline", "ours", "oracle", "diagnostic"]
 
@@ -51,6 +68,7 @@ class MethodInputs:
     grasp_model: Any = None
     task_model: Any = None
     sim: Any = None
+    search_model: Any = None
 
 
 @dataclass(frozen=True)
@@ -101,8 +119,38 @@ def _policy_mean(i: MethodInputs) -> ActionPolicy:
     return PolicyActions(i.task_model)
 
 
+def _search_grasp(i: MethodInputs) -> GraspPolicy:
+    return ActionSearchGrasps(i.search_model, i.config.policy.action_search)
+
+
+def _search_action(i: MethodInputs) -> ActionPolicy:
+    return ActionSearchActions(i.search_model, i.config.policy.action_search)
+
+
+_ORACLES: weakref.WeakKeyDictionary[Any, dict[str, OraclePlanner]] = weakref.WeakKeyDictionary()
+
+
+def oracle_for(sim: Any, config: PlanConfig) -> OraclePlanner:
+    """The Oracle's planner for ``sim`` and ``config``: one per simulator, shared by the Oracle's row and
+    the diagnostic that takes its grasp (which then reuses the Oracle's last plan instead of searching
+    again)."""
+    per_sim = _ORACLES.setdefault(sim, {})
+    key = config.to_json() if hasattr(config, "to_json") else repr(config)
+    if key not in per_sim:
+        per_sim[key] = OraclePlanner(sim, config)
+    return per_sim[key]
+
+
 def _oracle(i: MethodInputs) -> Planner:
-    return OraclePlanner(i.sim, i.config)
+    return oracle_for(i.sim, i.config)
+
+
+def _oracle_grasp(i: MethodInputs) -> GraspPolicy:
+    return OracleGrasp(oracle_for(i.sim, i.config))
+
+
+def _oracle_motion(i: MethodInputs) -> ActionPolicy:
+    return OracleActions(i.sim, i.config)
 
 
 #: Every method, in the order of the paper's figure (baselines, ours) and the Oracle last.
@@ -112,10 +160,19 @@ METHOD_TABLE: tuple[Method, ...] = (
     Method("Task_Agn+Trained", "baseline", ("grasp", "task"), grasp=_cem_q_g, action=_policy_mean),
     Method("Task_Ori+Random", "baseline", ("task",), grasp=_cem_q_t, action=_random_actions),
     Method("TOG-Net", "ours", ("task",), grasp=_cem_q_t, action=_policy_mean),
+    Method("TOG-Net+ActionSearch", "ours", ("search",), grasp=_search_grasp, action=_search_action),
     Method("Oracle", "oracle", (), planner=_oracle),
+    Method("TOG-Net grasp + Oracle motion", "diagnostic", ("task",), grasp=_cem_q_t, action=_oracle_motion),
+    Method("Oracle grasp + TOG-Net motion", "diagnostic", ("task",), grasp=_oracle_grasp,
+           action=_policy_mean),
 )
+#: The method beyond the paper (the paper's own comparison reads without it).
+ACTION_SEARCH = "TOG-Net+ActionSearch"
 #: The methods' names, in the table's order.
 METHODS: tuple[str, ...] = tuple(m.name for m in METHOD_TABLE)
+if METHODS != METHOD_NAMES or DIAGNOSTIC_NAMES != tuple(m.name for m in METHOD_TABLE
+                                                        if m.kind == "diagnostic"):
+    raise ImportError("tognet.planning.method_names must list the method table's names in its order")
 #: Which models each method needs.
 NEEDS: dict[str, tuple[ModelName, ...]] = {m.name: m.needs for m in METHOD_TABLE}
 
@@ -143,11 +200,12 @@ def check_methods(methods: list[str] | tuple[str, ...] | str) -> tuple[str, ...]
 
 
 def make_planner(method: str | Method, task: Task, *, grasp_model: Any = None, task_model: Any = None,
-                 config: PlanConfig | None = None, sim: Any = None) -> Planner:
+                 config: PlanConfig | None = None, sim: Any = None, search_model: Any = None) -> Planner:
     """The planner of ``method`` (a name of :data:`METHODS`, or a :class:`Method`) for ``task``.
 
-    ``grasp_model`` / ``task_model``: predictors (:class:`tognet.model.predict.TOGNetPredictor`) of the
-    grasp-only and the task model, as the method needs (:data:`NEEDS`); ``sim``: the simulator, for the
+    ``grasp_model`` / ``task_model`` / ``search_model``: predictors
+    (:class:`tognet.model.predict.TOGNetPredictor`) of the grasp-only model, the task's TOG-Net and its
+    action-conditioned model, as the method needs (:data:`NEEDS`); ``sim``: the simulator, for the
     methods that use it (the Oracle, the diagnostics). A task model given to a policy method also rates
     its chosen grasp (``Plan.scores``). The crops are ``config.crop`` or else the models' own (ValueError
     if they disagree)."""
@@ -155,11 +213,19 @@ def make_planner(method: str | Method, task: Task, *, grasp_model: Any = None, t
     config = config or PlanConfig()
     if row.uses_sim and sim is None:
         raise ValueError(f"{row.name} needs the simulator (sim=...)")
-    models = {"grasp": grasp_model, "task": task_model}
+    models = {"grasp": grasp_model, "task": task_model, "search": search_model}
+    what = {"grasp": "the grasp-only model", "task": f"the {task.name} model",
+            "search": f"the {task.name} action-search model (a model trained with task_head='action')"}
     for need in row.needs:
         if models[need] is None:
-            raise ValueError(f"{row.name} needs the {'grasp-only' if need == 'grasp' else task.name} model")
-    inputs = MethodInputs(task, config, grasp_model, task_model, sim)
+            raise ValueError(f"{row.name} needs {what[need]}")
+    if search_model is not None and "search" in row.needs:
+        if not getattr(search_model, "action_conditioned", False):
+            raise ValueError(f"{row.name}: {what['search']} is needed; this one's task stream does not see "
+                             "the action")
+        if getattr(search_model, "task", task.name) not in (None, task.name):
+            raise ValueError(f"the action-search model was trained for {search_model.task}, not {task.name}")
+    inputs = MethodInputs(task, config, grasp_model, task_model, sim, search_model)
     if row.planner is not None:  # a planner of its own (the Oracle's search: no model, no crops)
         return row.planner(inputs)
     assert row.grasp is not None and row.action is not None

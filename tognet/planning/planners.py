@@ -9,17 +9,19 @@ ground truth and runs trials in it: an upper bound, not a method a robot could r
 
 from __future__ import annotations
 
+import copy
 import time
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from tognet.data.episodes import ACTION_SOURCES, GRASP_SOURCES
 from tognet.geometry import Grasp
 from tognet.planning.config import PlanConfig
 from tognet.planning.plan import Plan, PlanningError
 from tognet.policies.grasp import NMSGrasps
-from tognet.policies.view import ActionPolicy, GraspPolicy, SceneView
+from tognet.policies.view import ActionPick, ActionPolicy, GraspPick, GraspPolicy, SceneView
 from tognet.tasks import Task
 
 
@@ -60,7 +62,9 @@ class PolicyPlanner:
         """One grasp and action for ``observation`` (PlanningError when there is no candidate)."""
         timing: dict[str, float] = {}
         t0 = time.perf_counter()
+        rng_start = copy.deepcopy(rng)
         view = _scene_view(observation, self.task, self.config, self.crop, rng, timing)
+        view.cache.update(observation=observation, rng_start=rng_start)  # for the diagnostic OracleGrasp
         t1 = time.perf_counter()
         pick = self.grasp_policy(view, 1, rng)
         t2 = time.perf_counter()
@@ -80,6 +84,76 @@ class PolicyPlanner:
     __call__ = plan
 
 
+class OracleSearch:
+    """The Oracle's trials in the simulator (ground truth; never part of a method a robot could run).
+
+    Every trial restores the settled scene, so a search leaves the simulator as it found it. Execution
+    noise seeds count up from ``SEARCH_SEED`` (the evaluation's own trials use seed 0)."""
+
+    SEARCH_SEED = 1000
+
+    def __init__(self, sim: Any, config: PlanConfig) -> None:
+        if sim.task is None:
+            raise ValueError("the Oracle plans for a task (sweeping or hammering), not for grasping only")
+        self.sim = sim
+        self.config = config
+        self.seed = self.SEARCH_SEED
+        self.trials = 0
+
+    def check_scene(self, observation: Any) -> None:
+        """ValueError unless the simulator holds ``observation``'s settled scene."""
+        scene, obj = self.sim.scene, self.sim.obj
+        if scene is None or scene["seed"] != observation.seed or obj.object_id != observation.object_id:
+            raise ValueError("the Oracle's simulator does not hold the observation's scene: reset it first")
+
+    def _trial(self, grasp: Grasp, action: Any) -> Any:
+        self.seed += 1
+        self.trials += 1
+        return self.sim.execute(grasp, action, self.seed)
+
+    def best_action(self, grasp_arr: NDArray[np.float64], stop_at_sure: bool = True
+                    ) -> tuple[float, int, NDArray[np.float64]] | None:
+        """For one grasp: a probe trial lifts the tool to see how it hangs in the hand, then each of
+        :func:`tognet.sim.oracle.task_actions` runs on ``oracle.seeds`` search seeds (a pair that fails
+        once is dropped); (share of search seeds won, wins, action) of the best pair, or None when the
+        grasp does not hold or is out of reach. Stops at the first pair that wins on every seed."""
+        from tognet.sim.oracle import task_actions
+
+        oc = self.config.oracle
+        grasp = Grasp.from_array(grasp_arr)
+        if self.trials >= oc.max_trials:
+            return None
+        try:
+            probe = self._trial(grasp, self.sim.task.nominal_action)
+        except ValueError:  # out of the gripper's reach
+            return None
+        if not probe.grasp_success or "in_hand" not in probe.info:
+            return None
+        best: tuple[float, int, NDArray[np.float64]] | None = None
+        for action in task_actions(self.sim, grasp, in_hand=probe.info["in_hand"]):
+            wins = tries = 0
+            for _ in range(oc.seeds):
+                if self.trials >= oc.max_trials:
+                    break
+                try:
+                    r = self._trial(grasp, action)
+                except ValueError:
+                    break
+                if not r.valid:
+                    continue
+                tries += 1
+                wins += int(r.task_success)
+                if not r.task_success:
+                    break  # a pair that failed once cannot be the sure one: try the next
+            if tries:
+                key = (wins / oc.seeds, wins)
+                if best is None or key > (best[0], best[1]):
+                    best = (key[0], wins, np.asarray(action, dtype=np.float64))
+            if stop_at_sure and wins == oc.seeds:
+                break
+        return best
+
+
 class OraclePlanner:
     """The Oracle: the simulator's ground truth (settled object pose, the tool's pose in the hand, the
     props' layout) and trials run in the simulator itself. For each NMS mode of the antipodal candidates
@@ -94,79 +168,84 @@ class OraclePlanner:
     restores the settled scene, so the evaluation's own trial starts from the same state."""
 
     name = "Oracle"
-    SEARCH_SEED = 1000
 
     def __init__(self, sim: Any, config: PlanConfig | None = None) -> None:
         if sim.task is None:
             raise ValueError("the Oracle plans for a task (sweeping or hammering), not for grasping only")
         self.sim = sim
         self.config = config or PlanConfig()
-
-    def _actions(self, grasp: Grasp, in_hand: Any) -> list[NDArray[np.float64]]:
-        from tognet.sim.oracle import task_actions
-
-        return task_actions(self.sim, grasp, in_hand=in_hand)
+        self._last: tuple[tuple[str, int, bytes], Plan] | None = None
+        self._rng_after: dict[str, Any] = {}
 
     def plan(self, observation: Any, rng: np.random.Generator) -> Plan:
-        """The best (grasp, action) the search finds for the simulator's current scene."""
-        sim, oc = self.sim, self.config.oracle
-        scene = sim.scene
-        if scene is None or scene["seed"] != observation.seed or sim.obj.object_id != observation.object_id:
-            raise ValueError("the Oracle's simulator does not hold the observation's scene: reset it first")
+        """The best (grasp, action) the search finds for the simulator's current scene. The same
+        observation with a generator in the same state gives the same plan; the last one is kept, so a
+        second planner asking for it (the diagnostic "Oracle grasp + TOG-Net motion") costs no search."""
+        key = (str(observation.object_id), int(observation.seed), repr(rng.bit_generator.state).encode())
+        if self._last is not None and self._last[0] == key:
+            rng.bit_generator.state = self._rng_after  # as if the search had run again
+            return self._last[1]
+        search = OracleSearch(self.sim, self.config)
+        search.check_scene(observation)
+        oc = self.config.oracle
         timing: dict[str, float] = {}
         t0 = time.perf_counter()
-        view = _scene_view(observation, sim.task, self.config, None, rng, timing)
+        view = _scene_view(observation, self.sim.task, self.config, None, rng, timing)
         modes, _ = NMSGrasps(self.config.policy).modes(view)
-        trials = 0
-        seed = self.SEARCH_SEED
         best: tuple[float, int, NDArray[np.float64], NDArray[np.float64]] | None = None
         fallback = (modes[0].copy(), np.zeros(4))
         done = False
         for g in modes[: oc.grasps]:
             for flip in (0.0, np.pi):
-                if done or trials >= oc.max_trials:
+                if done or search.trials >= oc.max_trials:
                     break
                 grasp_arr = g.copy()
                 grasp_arr[3] = np.mod(grasp_arr[3] + flip, 2 * np.pi)
-                grasp = Grasp.from_array(grasp_arr)
-                seed += 1
-                trials += 1
-                try:
-                    probe = sim.execute(grasp, sim.task.nominal_action, seed)
-                except ValueError:  # out of the gripper's reach
-                    continue
-                if not probe.grasp_success or "in_hand" not in probe.info:
-                    continue
-                for action in self._actions(grasp, probe.info["in_hand"]):
-                    wins = tries = 0
-                    for _ in range(oc.seeds):
-                        if trials >= oc.max_trials:
-                            break
-                        seed += 1
-                        trials += 1
-                        try:
-                            r = sim.execute(grasp, action, seed)
-                        except ValueError:
-                            break
-                        if not r.valid:
-                            continue
-                        tries += 1
-                        wins += int(r.task_success)
-                        if not r.task_success:
-                            break  # a pair that failed once cannot be the sure one: try the next
-                    if tries:
-                        key = (wins / oc.seeds, wins)
-                        if best is None or key > (best[0], best[1]):
-                            best = (key[0], wins, grasp_arr.copy(), np.asarray(action, dtype=np.float64))
-                    if wins == oc.seeds:
-                        done = True
-                        break
+                found = search.best_action(grasp_arr)
+                if found is not None and (best is None or (found[0], found[1]) > (best[0], best[1])):
+                    best = (found[0], found[1], grasp_arr.copy(), found[2])
+                done = found is not None and found[1] == oc.seeds
         grasp_arr, action = (best[2], best[3]) if best is not None else fallback
         timing["search"] = time.perf_counter() - t0 - timing["depth"] - timing["candidates"]
         timing["total"] = time.perf_counter() - t0
         scores = {"choice": best[0] if best is not None else 0.0,
                   "search_successes": float(best[1]) if best is not None else 0.0}
-        return Plan(self.name, grasp_arr, action, scores, timing,
-                    {"search_trials": trials, "candidates": len(view.candidates), "found": best is not None})
+        plan = Plan(self.name, grasp_arr, action, scores, timing,
+                    {"search_trials": search.trials, "candidates": len(view.candidates),
+                     "found": best is not None})
+        self._last, self._rng_after = (key, plan), rng.bit_generator.state
+        return plan
 
     __call__ = plan
+
+
+class OracleGrasp:
+    """Diagnostic grasp policy: the Oracle's grasp for the scene (its whole search, simulator ground
+    truth), the same for every call. ``oracle`` is the planner (shared with the Oracle's own row, whose
+    last plan it reuses); :class:`PolicyPlanner` keeps the observation and the generator as it was given
+    (``view.cache["observation"]``, ``view.cache["rng_start"]``), so the search is the Oracle row's own."""
+
+    def __init__(self, oracle: OraclePlanner) -> None:
+        self.oracle = oracle
+
+    def __call__(self, view: SceneView, n: int, rng: np.random.Generator) -> GraspPick:
+        plan = self.oracle.plan(view.cache["observation"], copy.deepcopy(view.cache["rng_start"]))
+        return GraspPick(np.repeat(plan.grasp[None], n, axis=0), np.full(n, GRASP_SOURCES["given"], np.int8),
+                         np.full(n, plan.scores.get("choice", 0.0), np.float32))
+
+
+class OracleActions:
+    """Diagnostic action policy: for each grasp, the Oracle's action search from it (a probe lift, the
+    hand-computed actions tried in the simulator on search seeds; :meth:`OracleSearch.best_action`), its
+    budget ``oracle.max_trials`` per grasp; the nominal action where the grasp does not hold."""
+
+    def __init__(self, sim: Any, config: PlanConfig) -> None:
+        self.sim = sim
+        self.config = config
+
+    def __call__(self, view: SceneView, grasps: NDArray[np.float64], rng: np.random.Generator) -> ActionPick:
+        acts = np.zeros((len(grasps), 4))
+        for i, g in enumerate(grasps):
+            found = OracleSearch(self.sim, self.config).best_action(np.asarray(g, np.float64))
+            acts[i] = found[2] if found is not None else self.sim.task.nominal_action
+        return ActionPick(acts, np.full(len(grasps), ACTION_SOURCES["given"], np.int8))
