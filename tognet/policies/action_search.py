@@ -54,35 +54,51 @@ def _order(success: NDArray[Any], progress: NDArray[Any], config: ActionSearchCo
     return np.asarray(success, np.float64) + config.progress_weight * np.asarray(progress, np.float64)
 
 
+def _bounds(mean: NDArray[np.float64], low: NDArray[np.float64], high: NDArray[np.float64],
+            config: ActionSearchConfig) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Per candidate (N, 4) lower and upper bounds of the search: the box, or its trust region."""
+    n = len(mean)
+    if config.trust_region <= 0:
+        return np.broadcast_to(low, (n, 4)).copy(), np.broadcast_to(high, (n, 4)).copy()
+    half = config.trust_region * np.asarray(config.local_std)
+    return np.maximum(mean - half, low), np.minimum(mean + half, high)
+
+
 def rate_candidates(model: Any, crops: NDArray[np.float32], z: NDArray[np.float32], low: NDArray[np.float64],
                     high: NDArray[np.float64], config: ActionSearchConfig, rng: np.random.Generator
-                    ) -> tuple[Any, NDArray[np.float64], NDArray[np.float64]]:
+                    ) -> tuple[Any, NDArray[np.float64], NDArray[np.float64], tuple[NDArray[np.float64],
+                                                                                   NDArray[np.float64]]]:
     """Encode N candidates and rate each on ``rate_samples`` actions: (encoded inputs, the best rating
-    action per candidate (N, 4), its order score (N,)); Q_G is in the encoded inputs."""
+    action per candidate (N, 4), its predicted success (N,), the per-candidate search bounds); Q_G is in
+    the encoded inputs."""
     enc = model.encode(crops, z)
     n = len(enc)
     k = max(1, config.rate_samples)
-    k_local = min(k - 1, int(round((k - 1) * config.local_fraction)))
+    local_share = 1.0 if config.trust_region > 0 else config.local_fraction
+    k_local = min(k - 1, int(round((k - 1) * local_share)))
     k_box = k - 1 - k_local
     mean = np.clip(enc.action_mean.astype(np.float64), low, high)
+    lo, hi = _bounds(mean, low, high, config)
     local = mean[:, None, :] + rng.standard_normal((n, k_local, 4)) * np.asarray(config.local_std)
     box = np.broadcast_to(rng.uniform(low, high, (k_box, 4)), (n, k_box, 4))
-    actions = np.clip(np.concatenate([mean[:, None, :], local, box], axis=1), low, high)
+    actions = np.clip(np.concatenate([mean[:, None, :], local, box], axis=1), lo[:, None], hi[:, None])
     success, progress = model.score_actions(enc, actions)
     score = _order(success, progress, config)
     best = score.argmax(axis=1)
     rows = np.arange(n)
-    return enc, actions[rows, best], success[rows, best].astype(np.float64)
+    return enc, actions[rows, best], success[rows, best].astype(np.float64), (lo, hi)
 
 
 def refine_actions(model: Any, enc: Any, rows: NDArray[np.intp], start: NDArray[np.float64],
                    low: NDArray[np.float64], high: NDArray[np.float64], config: ActionSearchConfig,
                    rng: np.random.Generator) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Cross-entropy search of the action for the encoded candidates ``rows`` (M,), each started at its
-    ``start`` action (M, 4): the best action found per row (M, 4) and its predicted success (M,)."""
+    ``start`` action (M, 4), within per-row bounds ``low``/``high`` (M, 4): the best action found per
+    row (M, 4) and its predicted success (M,)."""
     m = len(rows)
     mu = np.asarray(start, np.float64).copy()
-    std = np.maximum((high - low) / 4.0, np.asarray(config.min_std))[None].repeat(m, axis=0)
+    low, high = np.broadcast_to(low, (m, 4)), np.broadcast_to(high, (m, 4))
+    std = np.maximum((high - low) / 4.0, np.asarray(config.min_std))
     best_a = mu.copy()
     s0, p0 = model.score_actions(enc, mu[:, None, :], rows)
     best_s, best_o = s0[:, 0].astype(np.float64), _order(s0, p0, config)[:, 0]
@@ -90,7 +106,7 @@ def refine_actions(model: Any, enc: Any, rows: NDArray[np.intp], start: NDArray[
     floor = np.asarray(config.min_std)
     for _ in range(max(0, config.iterations)):
         draws = np.clip(mu[:, None, :] + rng.standard_normal((m, config.samples, 4)) * std[:, None, :],
-                        low, high)
+                        low[:, None], high[:, None])
         draws[:, 0] = best_a  # the best so far stays in the running
         success, progress = model.score_actions(enc, draws, rows)
         order = _order(success, progress, config)
@@ -111,11 +127,11 @@ def search(model: Any, crops: NDArray[np.float32], z: NDArray[np.float32], low: 
     """Rate every candidate by its best action, refine the actions of the best-rated ones and return
     them ranked by Q_G * Q_T|G,a (see the module docstring)."""
     low, high = np.asarray(low, np.float64), np.asarray(high, np.float64)
-    enc, rate_a, rate_s = rate_candidates(model, crops, z, low, high, config, rng)
+    enc, rate_a, rate_s, (lo, hi) = rate_candidates(model, crops, z, low, high, config, rng)
     q_g = enc.q_g.astype(np.float64)
     rating = q_g * rate_s
     rows = np.argsort(-rating, kind="stable")[: max(1, config.refine_grasps)]
-    acts, success = refine_actions(model, enc, rows, rate_a[rows], low, high, config, rng)
+    acts, success = refine_actions(model, enc, rows, rate_a[rows], lo[rows], hi[rows], config, rng)
     value = q_g[rows] * success
     order = np.argsort(-value, kind="stable")
     return SearchResult(rows[order], acts[order], success[order], q_g[rows][order], rating)
@@ -128,8 +144,8 @@ def best_actions(model: Any, crops: NDArray[np.float32], z: NDArray[np.float32],
     low, high = np.asarray(low, np.float64), np.asarray(high, np.float64)
     if len(crops) == 0:
         return np.zeros((0, 4)), np.zeros(0)
-    enc, rate_a, _ = rate_candidates(model, crops, z, low, high, config, rng)
-    return refine_actions(model, enc, np.arange(len(enc)), rate_a, low, high, config, rng)
+    enc, rate_a, _, (lo, hi) = rate_candidates(model, crops, z, low, high, config, rng)
+    return refine_actions(model, enc, np.arange(len(enc)), rate_a, lo, hi, config, rng)
 
 
 class ActionSearchGrasps:

@@ -26,6 +26,12 @@ class ActionSearchConfig(Config):
         "Std-dev of the rating draws around the action mean (a_x, a_y, a_z m; a_phi rad): about the "
         "collection policy's noise, where the data is densest.",
     )
+    trust_region: float = doc(
+        0.0,
+        "0: actions are searched over the task's whole action box. > 0: within this many ``local_std`` of "
+        "each candidate's own action mean (the policy head, fitted to successful actions), a region the "
+        "data covers densely: a learned Q maximised far from its data finds its own errors.",
+    )
     refine_grasps: int = doc(4, "Best-rated candidates whose action is then searched by CEM.")
     iterations: int = doc(3, "CEM refits of the action (the paper's grasp CEM has 3).")
     samples: int = doc(64, "Actions drawn per CEM iteration.")
