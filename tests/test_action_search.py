@@ -101,7 +101,7 @@ def test_head_ranks_the_good_action_above_bad_ones_on_an_unseen_scene(hammer):
         acts = np.stack([good] + [np.clip(good + np.asarray(o), sim.task.action_low, sim.task.action_high)
                                   for o in BAD.values()])
         crops, z = view.crops(grasps["far_end"].as_array()[None])
-        success, progress = model.score_actions(model.encode(crops, z), acts[None])
+        success = model.score_actions(model.encode(crops, z), acts[None]).success
         assert np.all(success[0, 0] > success[0, 1:]), (seed, success)
 
 

@@ -1,5 +1,7 @@
 """The action-conditioned task stream (the learned action search's model) and the graded outcome."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 import torch
@@ -28,7 +30,7 @@ def test_scoring_many_actions_matches_the_forward_pass():
     crop, z = _inputs()
     actions = torch.randn(6, 5, 4) * 0.05
     enc = model.encode_task(crop, z)
-    many = model.score_actions(enc["encoded"], actions)
+    many = model.score_actions(enc["encoded"], actions)[:, :, 0]  # one member
     assert many.shape == (6, 5, 2)
     for k in range(5):
         out = model(crop, z, actions[:, k])
@@ -77,12 +79,13 @@ def test_train_and_search_inputs(tmp_path):
     crops = np.random.default_rng(0).normal(0, 0.01, (3, 64, 64)).astype(np.float32)
     z = np.full(3, 0.8, np.float32)
     enc = pred.encode(crops, z)
-    success, progress = pred.score_actions(enc, np.zeros((3, 7, 4)))
-    assert success.shape == progress.shape == (3, 7)
-    assert np.all((success >= 0) & (success <= 1))
+    scores = pred.score_actions(enc, np.zeros((3, 7, 4)))
+    assert scores.success.shape == scores.progress.shape == scores.spread.shape == (3, 7)
+    assert np.all((scores.success >= 0) & (scores.success <= 1))
+    assert np.all(scores.spread == 0)  # one member
     # the predictor's own Q_T|G scores the action mean, as the eager model does
     p = pred.predict(crops, z)
-    s_mean, _ = pred.score_actions(enc, p.action_mean[:, None, :].astype(np.float64))
+    s_mean = pred.score_actions(enc, p.action_mean[:, None, :].astype(np.float64)).success
     np.testing.assert_allclose(p.q_t_given_g, s_mean[:, 0], rtol=1e-4, atol=1e-5)
 
 
@@ -103,3 +106,27 @@ def test_sweeping_and_pulling_progress():
     assert pull.progress(half) == pytest.approx(0.5)
     assert pull.progress({**half, "can_in_target": True}) == 1.0
     assert pull.progress({**half, "can_on_table": False}) == 0.0
+
+
+def test_members_learn_each_label_and_disagree_off_the_data(tmp_path):
+    arch = dataclasses.replace(TINY, action_members=3)
+    torch.manual_seed(1)
+    model = TOGNet(arch).eval()
+    crop, z = _inputs(4)
+    out = model(crop, z, torch.zeros(4, 4))
+    assert out["q_tg_logit"].shape == out["progress_logit"].shape == (4, 3)
+    # the task term averages the members' cross-entropies
+    s_g, s_t = torch.ones(4), torch.tensor([1.0, 0.0, 1.0, 0.0])
+    args = (out["q_g_logit"], out["q_tg_logit"], torch.zeros(4, 4), s_g, s_t, torch.zeros(4, 4))
+    got = tognet_loss(*args)["task"]
+    bce = torch.nn.functional.binary_cross_entropy_with_logits
+    ref = sum(bce(out["q_tg_logit"][:, k], s_t, reduction="sum") for k in range(3)) / 3 / 4
+    torch.testing.assert_close(got, ref)
+    data = write_synthetic_dataset(tmp_path / "d", task="t", n=96, shard_size=96, seed=2, n_objects=6)
+    cfg = TrainConfig(arch=arch, epochs=1, batch_size=32, val_fraction=0.25, num_threads=1)
+    pred = TOGNetPredictor.load(train([data], "t", tmp_path / "o", cfg, progress=False,
+                                      log=lambda s: None).best_path)
+    crops = np.random.default_rng(0).normal(0, 0.01, (2, 64, 64)).astype(np.float32)
+    scores = pred.score_actions(pred.encode(crops, np.full(2, 0.8, np.float32)),
+                                np.random.default_rng(1).normal(0, 0.05, (2, 5, 4)))
+    assert scores.spread.shape == (2, 5) and np.all(scores.spread > 0)  # members initialised apart

@@ -57,6 +57,7 @@ SAME_AS_BEFORE: dict[str, object] = {
     "loss.action_sigma_source": "fixed",
     # the action-conditioned task stream came later: every older model is the paper's
     "arch.task_head": "policy", "arch.action_features": 32, "arch.action_hidden": 128,
+    "arch.action_members": 1,
     "loss.weight_progress": 0.5,
 }
 

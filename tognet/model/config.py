@@ -31,6 +31,12 @@ class ArchConfig(Config):
         "allows and a planner can search the action (the learned action search, beyond the paper).",
     )
     action_features: int = doc(32, "Width of the action embedding of an action-conditioned task stream.")
+    action_members: int = doc(
+        1,
+        "Members of the action-conditioned task stream (an ensemble sharing the trunk and bottleneck, each "
+        "its own head from its own initialisation): their spread says where the data is thin, so a search "
+        "can prefer actions they agree on (ActionSearchConfig.pessimism).",
+    )
     action_hidden: int = doc(
         128,
         "Hidden units of an action-conditioned task stream's head (two layers); wider than the other "

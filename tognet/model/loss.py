@@ -56,8 +56,7 @@ def masked_sums(
     m_t = task_success > 0.5
     sigma = torch.as_tensor(action_sigma, dtype=action_pred.dtype, device=action_pred.device)
     ce_g = F.binary_cross_entropy_with_logits(q_g_logit, grasp_success.to(q_g_logit.dtype), reduction="sum")
-    ce_t = F.binary_cross_entropy_with_logits(q_tg_logit[m_g], task_success[m_g].to(q_tg_logit.dtype),
-                                              reduction="sum")
+    ce_t = _member_ce(q_tg_logit[m_g], task_success[m_g])
     sq = 0.5 * (((action_pred[m_t] - action[m_t]) / sigma) ** 2).sum()
     return ce_g, ce_t, sq, m_g.sum().to(ce_g.dtype), m_t.sum().to(ce_g.dtype)
 
@@ -104,9 +103,18 @@ def progress_sum(progress_logit: torch.Tensor, progress: torch.Tensor, grasp_suc
     """Sum of CE(progress, sigmoid(progress_logit)) over the trials that held the tool and whose progress
     is known (in [0, 1]; -1 is unknown), and their number."""
     m = (grasp_success > 0.5) & (progress >= 0.0)
-    ce = F.binary_cross_entropy_with_logits(progress_logit[m], progress[m].to(progress_logit.dtype),
-                                            reduction="sum")
+    ce = _member_ce(progress_logit[m], progress[m])
     return ce, m.sum().to(ce.dtype)
+
+
+def _member_ce(logit: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    """Summed cross-entropy of logits (M,) or (M, members) against targets (M,): with several members,
+    each member's term, averaged over the members (each member learns every label)."""
+    t = target.to(logit.dtype)
+    if logit.dim() == 2:
+        t = t[:, None].expand_as(logit)
+        return F.binary_cross_entropy_with_logits(logit, t, reduction="sum") / logit.shape[1]
+    return F.binary_cross_entropy_with_logits(logit, t, reduction="sum")
 
 
 def reduce_sums(

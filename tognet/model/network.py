@@ -97,32 +97,50 @@ class Stream(nn.Module):
         return self.head(torch.cat([x, z_embed], dim=1))
 
 
-class ActionTaskStream(nn.Module):
-    """The action-conditioned task stream: bottleneck features and z (one part per grasp) plus an action
-    embedding (one part per action) -> two logits (task success, progress) per (grasp, action) pair."""
+class _ActionMember(nn.Module):
+    """One member of the action-conditioned task stream: the grasp's part, the action's part, the head."""
 
-    def __init__(self, cin: int, spatial: int, arch: ArchConfig) -> None:
+    def __init__(self, features: int, arch: ArchConfig) -> None:
         super().__init__()
-        b, h = arch.bottleneck_channels, arch.action_hidden
-        self.bottleneck = nn.Sequential(
-            nn.Conv2d(cin, b, 1, bias=False), nn.BatchNorm2d(b), nn.ReLU(inplace=True)
-        )
-        self.grasp_part = nn.Linear(b * spatial * spatial + arch.z_features, h)
+        h = arch.action_hidden
+        self.grasp_part = nn.Linear(features, h)
         self.action_part = nn.Sequential(
             nn.Linear(ACTION_DIM, arch.action_features), nn.ReLU(inplace=True),
             nn.Linear(arch.action_features, h, bias=False),
         )
         self.head = nn.Sequential(nn.ReLU(), nn.Linear(h, h), nn.ReLU(), nn.Linear(h, 2))
 
+    def score(self, encoded: torch.Tensor, action_norm: torch.Tensor) -> torch.Tensor:
+        a = self.action_part(action_norm)
+        return self.head(encoded + a if a.dim() == 2 else encoded.unsqueeze(1) + a)
+
+
+class ActionTaskStream(nn.Module):
+    """The action-conditioned task stream: bottleneck features and z (one part per grasp) plus an action
+    embedding (one part per action) -> two logits (task success, progress) per (grasp, action) pair, from
+    each of ``ArchConfig.action_members`` members (an ensemble on one bottleneck: where they disagree, the
+    model has not seen enough, and a search can hold back there)."""
+
+    def __init__(self, cin: int, spatial: int, arch: ArchConfig) -> None:
+        super().__init__()
+        b = arch.bottleneck_channels
+        self.bottleneck = nn.Sequential(
+            nn.Conv2d(cin, b, 1, bias=False), nn.BatchNorm2d(b), nn.ReLU(inplace=True)
+        )
+        features = b * spatial * spatial + arch.z_features
+        if arch.action_members < 1:
+            raise ValueError(f"arch.action_members must be >= 1, got {arch.action_members}")
+        self.members = nn.ModuleList(_ActionMember(features, arch) for _ in range(arch.action_members))
+
     def encode(self, features: torch.Tensor, z_embed: torch.Tensor) -> torch.Tensor:
-        """The grasp's part of the first layer (N, hidden)."""
-        return self.grasp_part(torch.cat([self.bottleneck(features).flatten(1), z_embed], dim=1))
+        """Each member's grasp part of its first layer (N, members, hidden)."""
+        x = torch.cat([self.bottleneck(features).flatten(1), z_embed], dim=1)
+        return torch.stack([m.grasp_part(x) for m in self.members], dim=1)
 
     def score(self, encoded: torch.Tensor, action_norm: torch.Tensor) -> torch.Tensor:
-        """Logits (..., 2) for normalised actions: ``encoded`` (N, H) with actions (N, 4) or (N, K, 4)."""
-        a = self.action_part(action_norm)
-        x = encoded + a if a.dim() == 2 else encoded.unsqueeze(1) + a
-        return self.head(x)
+        """Logits (..., members, 2) for normalised actions: ``encoded`` (N, members, H) with actions (N, 4)
+        or (N, K, 4)."""
+        return torch.stack([m.score(encoded[:, i], action_norm) for i, m in enumerate(self.members)], dim=-2)
 
 
 class TOGNet(nn.Module):
@@ -203,22 +221,26 @@ class TOGNet(nn.Module):
                 ) -> dict[str, torch.Tensor]:
         """Returns ``q_g_logit`` (N,), ``q_tg_logit`` (N,) and ``action_norm`` (N, 4); an action-conditioned
         model also ``progress_logit`` (N,), both for ``action`` (N, 4, stored units) or, when None, for its
-        own action mean. The paper's model ignores ``action``."""
+        own action mean, and both (N, members) with several members. The paper's model ignores
+        ``action``."""
         feat_big, feat_small, z_e = self._features(crop, z)
         action_norm = self.action(feat_big, z_e)
         out = {"q_g_logit": self.grasp(feat_small, z_e).squeeze(1), "action_norm": action_norm}
         if isinstance(self.task, ActionTaskStream):
             a = self.normalize_action(self.denormalize_action(action_norm.detach()) if action is None
                                       else action)
-            logits = self.task.score(self.task.encode(feat_big, z_e), a)
-            out["q_tg_logit"], out["progress_logit"] = logits[:, 0], logits[:, 1]
+            logits = self.task.score(self.task.encode(feat_big, z_e), a)  # (N, members, 2)
+            squeeze = logits.shape[1] == 1
+            out["q_tg_logit"] = logits[:, 0, 0] if squeeze else logits[..., 0]
+            out["progress_logit"] = logits[:, 0, 1] if squeeze else logits[..., 1]
         else:
             out["q_tg_logit"] = self.task(feat_big, z_e).squeeze(1)
         return out
 
     def encode_task(self, crop: torch.Tensor, z: torch.Tensor) -> dict[str, torch.Tensor]:
-        """For an action-conditioned model: ``q_g_logit`` (N,), ``action_norm`` (N, 4) and ``encoded`` (N, H),
-        the grasp's part of the task stream, to score many actions with :meth:`score_actions`."""
+        """For an action-conditioned model: ``q_g_logit`` (N,), ``action_norm`` (N, 4) and ``encoded``
+        (N, members, H), the grasp's part of the task stream, to score many actions with
+        :meth:`score_actions`."""
         if not isinstance(self.task, ActionTaskStream):
             raise ValueError("this model's task stream does not see the action (ArchConfig.task_head)")
         feat_big, feat_small, z_e = self._features(crop, z)
@@ -226,7 +248,8 @@ class TOGNet(nn.Module):
                 "action_norm": self.action(feat_big, z_e), "encoded": self.task.encode(feat_big, z_e)}
 
     def score_actions(self, encoded: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
-        """Logits (N, K, 2) (task success, progress) of actions (N, K, 4, stored units) for encoded grasps."""
+        """Logits (N, K, members, 2) (task success, progress) of actions (N, K, 4, stored units) for encoded
+        grasps."""
         assert isinstance(self.task, ActionTaskStream)
         return self.task.score(encoded, self.normalize_action(actions))
 

@@ -72,6 +72,16 @@ class ActionSearchInputs:
         return int(self.q_g.shape[0])
 
 
+@dataclasses.dataclass(frozen=True)
+class ActionScores:
+    """Scores of K actions for each of M grasps: ``success`` Q_T|G,a and ``progress`` (the members' means)
+    and ``spread`` (the members' std-dev of Q_T|G,a; zeros for a single member), all (M, K)."""
+
+    success: np.ndarray
+    progress: np.ndarray
+    spread: np.ndarray
+
+
 class TOGNetPredictor:
     """A trained TOG-Net in eval mode (batch norm folded; TorchScript-optimised on CPU unless
     ``optimize=False``) with its checkpoint's self-description in ``info``."""
@@ -145,7 +155,8 @@ class TOGNetPredictor:
         for lo in range(0, n, batch_size):
             out = self._forward(c[lo : lo + batch_size], zz[lo : lo + batch_size])
             q_g.append(torch.sigmoid(out["q_g_logit"]))
-            q_tg.append(torch.sigmoid(out["q_tg_logit"]))
+            p_tg = torch.sigmoid(out["q_tg_logit"])
+            q_tg.append(p_tg.mean(dim=1) if p_tg.dim() == 2 else p_tg)
             act.append(self.model.denormalize_action(out["action_norm"]))
         g = torch.cat(q_g).float().cpu().numpy()
         t = torch.cat(q_tg).float().cpu().numpy()
@@ -173,17 +184,19 @@ class TOGNetPredictor:
 
     @torch.inference_mode()
     def score_actions(self, inputs: ActionSearchInputs, actions: np.ndarray,
-                      rows: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """Q_T|G,a and the predicted progress (both (M, K)) of actions (M, K, 4) (stored units) for the
-        encoded candidates ``rows`` (M indices; default all N)."""
+                      rows: np.ndarray | None = None) -> ActionScores:
+        """Q_T|G,a and the predicted progress (the members' means, (M, K)) and the members' spread of Q_T|G,a
+        of actions (M, K, 4) (stored units) for the encoded candidates ``rows`` (M indices; default all)."""
         enc = inputs.encoded
         if rows is not None:
             enc = enc[torch.as_tensor(np.asarray(rows), dtype=torch.long)]
         a = torch.from_numpy(np.ascontiguousarray(actions, dtype=np.float32)).to(self.device)
         if a.dim() != 3 or a.shape[0] != enc.shape[0] or a.shape[2] != 4:
             raise ValueError(f"actions: expected shape ({enc.shape[0]}, K, 4), got {tuple(a.shape)}")
-        logits = torch.sigmoid(self.model.score_actions(enc, a)).float().cpu().numpy()
-        return logits[..., 0], logits[..., 1]
+        p = torch.sigmoid(self.model.score_actions(enc, a)).float()  # (M, K, members, 2)
+        spread = p[..., 0].std(dim=2, unbiased=False) if p.shape[2] > 1 else torch.zeros_like(p[..., 0, 0])
+        return ActionScores(p[..., 0].mean(dim=2).cpu().numpy(), p[..., 1].mean(dim=2).cpu().numpy(),
+                            spread.cpu().numpy())
 
     def score_fn(self, kind: Literal["task", "grasp", "task_given_grasp"] = "task"
                  ) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:

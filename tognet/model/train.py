@@ -121,7 +121,7 @@ def evaluate(model: TOGNet, batches: Iterable[Batch], config: TrainConfig, progr
             sums[3] += float(s_p)
             counts[2] += float(n_p)
         q_g.append(torch.sigmoid(out["q_g_logit"]).cpu())
-        q_tg.append(torch.sigmoid(out["q_tg_logit"]).cpu())
+        q_tg.append(_probability(out["q_tg_logit"]).cpu())
         act.append(a_pred.cpu())
         s_g.append(batch.s_g.cpu())
         s_t.append(batch.s_t.cpu())
@@ -140,6 +140,12 @@ def evaluate(model: TOGNet, batches: Iterable[Batch], config: TrainConfig, progr
         torch.cat(s_g).numpy(), torch.cat(s_t).numpy(), torch.cat(a_true).numpy(),
     )
     return result
+
+
+def _probability(logit: torch.Tensor) -> torch.Tensor:
+    """Sigmoid of logits (N,), or the members' mean probability of logits (N, members)."""
+    p = torch.sigmoid(logit)
+    return p.mean(dim=1) if p.dim() == 2 else p
 
 
 def _forward(model: TOGNet, b: Batch) -> dict[str, torch.Tensor]:

@@ -13,8 +13,11 @@ QT-Opt does for grasps:
    (``iterations`` refits of a diagonal Gaussian to the ``elite_fraction`` best of ``samples`` draws,
    clipped to the box), and the best (grasp, action) pair wins.
 
-An action's score is its predicted success, plus ``progress_weight`` times its predicted progress (the
-task's graded outcome) to order actions where success is unlikely everywhere. All draws come from the
+Actions are ordered by their predicted success, less ``pessimism`` times the disagreement of the model's
+members (an ensemble: a maximum over many actions otherwise finds those the model overrates where its
+data is thin), plus ``progress_weight`` times the predicted progress (the task's graded outcome), which
+orders actions where success is unlikely everywhere. ``trust_region`` > 0 keeps every action near the
+candidate's own action mean. All draws come from the
 generator given, so a search is reproducible. Pure numpy around the predictor's two calls
 (:meth:`tognet.model.predict.TOGNetPredictor.encode` and ``score_actions``).
 """
@@ -50,8 +53,11 @@ class SearchResult:
         return self.q_g * self.q_t_given_ga
 
 
-def _order(success: NDArray[Any], progress: NDArray[Any], config: ActionSearchConfig) -> NDArray[np.float64]:
-    return np.asarray(success, np.float64) + config.progress_weight * np.asarray(progress, np.float64)
+def _order(scores: Any, config: ActionSearchConfig) -> NDArray[np.float64]:
+    """How actions are ranked: predicted success, less ``pessimism`` times the members' spread, plus
+    ``progress_weight`` times the predicted progress."""
+    return (np.asarray(scores.success, np.float64) - config.pessimism * np.asarray(scores.spread, np.float64)
+            + config.progress_weight * np.asarray(scores.progress, np.float64))
 
 
 def _bounds(mean: NDArray[np.float64], low: NDArray[np.float64], high: NDArray[np.float64],
@@ -82,11 +88,10 @@ def rate_candidates(model: Any, crops: NDArray[np.float32], z: NDArray[np.float3
     local = mean[:, None, :] + rng.standard_normal((n, k_local, 4)) * np.asarray(config.local_std)
     box = np.broadcast_to(rng.uniform(low, high, (k_box, 4)), (n, k_box, 4))
     actions = np.clip(np.concatenate([mean[:, None, :], local, box], axis=1), lo[:, None], hi[:, None])
-    success, progress = model.score_actions(enc, actions)
-    score = _order(success, progress, config)
-    best = score.argmax(axis=1)
+    scores = model.score_actions(enc, actions)
+    best = _order(scores, config).argmax(axis=1)
     rows = np.arange(n)
-    return enc, actions[rows, best], success[rows, best].astype(np.float64), (lo, hi)
+    return enc, actions[rows, best], scores.success[rows, best].astype(np.float64), (lo, hi)
 
 
 def refine_actions(model: Any, enc: Any, rows: NDArray[np.intp], start: NDArray[np.float64],
@@ -100,16 +105,16 @@ def refine_actions(model: Any, enc: Any, rows: NDArray[np.intp], start: NDArray[
     low, high = np.broadcast_to(low, (m, 4)), np.broadcast_to(high, (m, 4))
     std = np.maximum((high - low) / 4.0, np.asarray(config.min_std))
     best_a = mu.copy()
-    s0, p0 = model.score_actions(enc, mu[:, None, :], rows)
-    best_s, best_o = s0[:, 0].astype(np.float64), _order(s0, p0, config)[:, 0]
+    s0 = model.score_actions(enc, mu[:, None, :], rows)
+    best_s, best_o = s0.success[:, 0].astype(np.float64), _order(s0, config)[:, 0]
     n_elite = max(2, int(round(config.samples * config.elite_fraction)))
     floor = np.asarray(config.min_std)
     for _ in range(max(0, config.iterations)):
         draws = np.clip(mu[:, None, :] + rng.standard_normal((m, config.samples, 4)) * std[:, None, :],
                         low[:, None], high[:, None])
         draws[:, 0] = best_a  # the best so far stays in the running
-        success, progress = model.score_actions(enc, draws, rows)
-        order = _order(success, progress, config)
+        scores = model.score_actions(enc, draws, rows)
+        success, order = scores.success, _order(scores, config)
         top = np.argsort(-order, axis=1)[:, :n_elite]
         elite = np.take_along_axis(draws, top[:, :, None], axis=1)
         mu, std = elite.mean(axis=1), np.maximum(elite.std(axis=1), floor)

@@ -40,6 +40,12 @@ class ActionSearchConfig(Config):
         (0.004, 0.004, 0.002, 0.02),
         "Floor of the CEM's std-dev per dimension, so the search does not collapse onto one draw.",
     )
+    pessimism: float = doc(
+        1.0,
+        "How many std-devs of the members' disagreement (ArchConfig.action_members) are taken off an "
+        "action's predicted success when actions are ordered: a maximum over many actions otherwise picks "
+        "those a model overrates where it has seen little. No effect with a single member.",
+    )
     progress_weight: float = doc(
         0.1,
         "Weight of the predicted progress added to the predicted success when ordering actions: breaks "
