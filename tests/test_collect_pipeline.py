@@ -77,6 +77,10 @@ def test_presets_load_and_cli_errors_are_one_line(tmp_path):
         preset = load_preset(name)
         assert preset.name == name and len(preset.rounds) == 3
         assert preset.rounds[0].policy == "nms_uniform" and preset.rounds[1].policy == "epsilon_greedy"
+    search = load_preset("quick-search")  # the learned action search's recipe: action-conditioned task models
+    assert all(search.train_for(t).arch.task_head == "action" for t in ("sweeping", "hammering", "pulling"))
+    assert search.train_for("grasping").arch.task_head == "policy"
+    assert [r.episodes for r in search.rounds_for("hammering")] == [24000, 16000, 16000]
     paper = load_preset("paper")
     assert paper.objects == {"primitive": 9000, "complex": 9000} and paper.rounds[0].episodes == 500_000
     runner = CliRunner()

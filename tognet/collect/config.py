@@ -124,7 +124,7 @@ class PipelineConfig(Config):
         return self.task_train.get(task, self.train)
 
 
-PRESETS = ("ci", "quick", "paper")
+PRESETS = ("ci", "quick", "quick-search", "paper")
 
 
 def load_preset(name_or_path: str | Path) -> PipelineConfig:
