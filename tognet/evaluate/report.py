@@ -40,7 +40,7 @@ METHOD_NOTES = {
     ACTION_SEARCH: "beyond the paper: the action-conditioned model Q_T|G,a (trained on every trial, "
                    "failures included) rates each grasp by the best action it allows, Q_G · max_a "
                    "Q_T|G,a, instead of by the collection policy's action; at the chosen grasp CEM "
-                   "searches the action under Q_T|G,a (the task's <task>_search model)",
+                   "searches the action under Q_T|G,a (the <task>_search model)",
     "Oracle": "simulator ground truth: NMS modes held both ways round, each tried in the simulator with "
               "actions computed from the tool's pose in the hand, on execution-noise seeds the evaluation "
               "does not use; an upper bound, not a method a robot could run",
@@ -99,9 +99,8 @@ def _name(results: dict[str, Any], m: str) -> Any:
     return m
 
 
-def _has_diagnostics(results: dict[str, Any], methods: Sequence[str] | None = None) -> bool:
-    methods = results["methods"] if methods is None else methods
-    return any(k == "diagnostic" for k in kinds_of(methods, results.get("kinds")).values())
+def _has_diagnostics(results: dict[str, Any]) -> bool:
+    return any(k == "diagnostic" for k in kinds_of(results["methods"], results.get("kinds")).values())
 
 
 def _rate_cell(s: dict[str, Any]) -> str:
@@ -279,9 +278,8 @@ def gap_tables(results: dict[str, Any], task: str) -> list[Table]:
         return []
     rows = [m for m in GAP_ROWS if m in results["methods"]]
     what = " (the paper's mix: one or two cans)" if task == "sweeping" else ""
-    heads = [_name(results, m) for m in rows]
     rates = Table(f"{task}{what}: task success % [95 % interval] (valid trials)",
-                  ["category", *(h[0] if isinstance(h, tuple) else h for h in heads)])
+                  ["category", *(_label(results, m) for m in rows)])
     for c in cats:
         rates.rows.append([c, *(_rate_cell(tres[c][sub]["methods"][m]) for m in rows)])
     split = Table(f"{task}: the gap to the Oracle, and what each half closes alone (percentage points)",
@@ -292,7 +290,7 @@ def gap_tables(results: dict[str, Any], task: str) -> list[Table]:
                        "table, in brackets its paired 95 % interval (scenes where both trials are valid), "
                        "and its share of the gap. Needs both: the part of the gap neither half closes alone "
                        "(negative when the two close overlapping parts). Bold: the interval lies above "
-                       "zero.")
+                       "zero; italic: below.")
     for c in cats:
         g = tres[c][sub]["gap"]
         motion, grasp = g.get("perfect_motion") or {}, g.get("perfect_grasp") or {}
