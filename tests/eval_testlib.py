@@ -4,8 +4,10 @@ and outputs, no skill), the grasp-only model and both tasks' TOG-Nets."""
 from pathlib import Path
 
 
-def tiny_models(root: Path) -> dict[str, Path]:
-    """``{"grasping": best.pt, <task>: best.pt}`` for every registered task, trained in a few seconds."""
+def tiny_models(root: Path, search: bool = False) -> dict[str, Path]:
+    """``{"grasping": best.pt, <task>: best.pt}`` for every registered task, trained in a few seconds; with
+    ``search``, also each task's action-conditioned model (``<task>_search``, task_head="action") that the
+    learned action search needs."""
     from tognet.data.synthetic import write_synthetic_dataset
     from tognet.model.config import ArchConfig, TrainConfig
     from tognet.model.train import train
@@ -20,6 +22,13 @@ def tiny_models(root: Path) -> dict[str, Path]:
         data = write_synthetic_dataset(root / f"data-{task}", task=task, n=96, shard_size=96, seed=1,
                                        n_objects=8)
         out[task] = train([data], task, root / task, cfg, progress=False, log=lambda s: None).best_path
+        if search and task != "grasping":
+            import dataclasses
+
+            action_arch = dataclasses.replace(arch, task_head="action", action_features=8, action_hidden=16)
+            acfg = dataclasses.replace(cfg, arch=action_arch)
+            out[f"{task}_search"] = train([data], task, root / f"{task}_search", acfg, progress=False,
+                                          log=lambda s: None).best_path
     return out
 
 

@@ -15,6 +15,7 @@ from tognet.evaluate import EvalConfig, EvalError, newcombe_paired, paired_diffe
 from tognet.jobs.workers import LocalExecutor
 from tognet.objects.record import load_catalog
 from tognet.planning import METHODS, OracleConfig, PlanConfig
+from tognet.planning.method_names import DIAGNOSTIC_NAMES
 from tognet.sim import Simulator
 from tognet.tasks import TASK_NAMES
 
@@ -68,12 +69,13 @@ def test_paired_difference_matches_a_published_value():
 # --- the harness at ci scale ----------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def models(tmp_path_factory):
-    return tiny_models(tmp_path_factory.mktemp("models"))
+    return tiny_models(tmp_path_factory.mktemp("models"), search=True)
 
 
 def _run(out, models, **kwargs):
     options = dict(methods="all", categories=["pg-primitive"], episodes=EPISODES, config=CONFIG,
-                   grasp_model=models["grasping"], task_models={t: models[t] for t in TASKS}, progress=False,
+                   grasp_model=models["grasping"],
+                   task_models={n: p for n, p in models.items() if n != "grasping"}, progress=False,
                    log=lambda _m: None)
     options.update(kwargs)
     return run_evaluation(out, TASKS, **options)
@@ -99,7 +101,9 @@ def _records(out):
 
 def test_results_are_well_formed(evaluation):
     out, results = evaluation
-    assert json.loads((out / "results.json").read_text())["methods"] == list(METHODS)
+    saved = json.loads((out / "results.json").read_text())
+    assert saved["methods"] == list(METHODS)
+    assert {m for m, k in saved["kinds"].items() if k == "diagnostic"} == set(DIAGNOSTIC_NAMES)
     for task in TASKS:
         subsets = results["tasks"][task]["categories"]["pg-primitive"]
         assert set(subsets) == ({"mix", "one-can", "two-can"} if task == "sweeping" else {"all"})
@@ -116,6 +120,14 @@ def test_results_are_well_formed(evaluation):
             if m != "TOG-Net":
                 d = main["tognet_minus_method"][m]
                 assert d["pairs"] <= EPISODES and d["ci"][0] <= d["difference"] <= d["ci"][1]
+            if m != "TOG-Net+ActionSearch" and m not in DIAGNOSTIC_NAMES:
+                d = main["action_search_minus_method"][m]
+                assert d["pairs"] <= EPISODES and d["ci"][0] <= d["difference"] <= d["ci"][1]
+        assert not set(main["action_search_minus_method"]) & set(DIAGNOSTIC_NAMES)
+        gap = main["gap"]  # where the gap to the Oracle is: the four rows, both halves
+        assert list(gap["rates"]) == ["TOG-Net", *DIAGNOSTIC_NAMES, "Oracle"]
+        assert {"perfect_motion", "perfect_grasp", "needs_both"} <= set(gap)
+        assert "Oracle" not in main["model_rating"] and main["model_rating"]["TOG-Net"]["n"] <= EPISODES
         oracle = main["methods"]["Oracle"]["rate"]
         if oracle:
             assert main["oracle_fraction"]["TOG-Net"] == main["methods"]["TOG-Net"]["rate"] / oracle
@@ -132,8 +144,10 @@ def test_the_report_is_self_contained(evaluation):
     sources = re.findall(r"<img src='([^']*)'", page)
     assert len(sources) >= 3 and all(s.startswith("data:image/") for s in sources)  # opens from disk alone
     assert "http://" not in page and "https://" not in page
-    for m in METHODS:
-        assert page.count(f"<td>{m}</td>") >= 6
+    for m in METHODS:  # the diagnostics marked as using the simulator
+        cell = f"<td class='diag'>{m} †</td>" if m in DIAGNOSTIC_NAMES else f"<td>{m}</td>"
+        assert page.count(cell) >= 6
+    assert "Where the gap is" in page and "TOG-Net+ActionSearch minus method, paired" in page
     md = (out / "report.md").read_text()
     assert "| method | pg-primitive |" in md
     for link in re.findall(r"\]\(([^)]+\.(?:png|gif))\)", md):
@@ -222,7 +236,8 @@ def _same_counts(a, b):
 def test_the_command_names_bad_input_in_one_line(tmp_path, models, args, message):
     (tmp_path / "a-file").write_text("x")
     base = ["evaluate", "--out", str(tmp_path / "out"), "--episodes", "1",
-            "--grasp-model", str(models["grasping"]), "--sweeping-model", str(models["sweeping"])]
+            "--grasp-model", str(models["grasping"]), "--sweeping-model", str(models["sweeping"]),
+            "--task-model", f"sweeping_search={models['sweeping_search']}"]
     result = CliRunner().invoke(app, base + [a.replace("{tmp}", str(tmp_path)) for a in args])
     assert result.exit_code == 2, result.output
     assert message in result.output and "Traceback" not in result.output

@@ -7,6 +7,7 @@ from eval_testlib import tiny_models
 
 from tognet.objects import generate_set
 from tognet.planning import METHODS, OracleConfig, PlanConfig, check_methods, make_planner
+from tognet.planning.method_names import DIAGNOSTIC_NAMES
 from tognet.sim import SimConfig, Simulator
 from tognet.tasks import TASK_NAMES, FailureReason
 
@@ -17,7 +18,7 @@ FAST = PlanConfig(oracle=OracleConfig(grasps=2, seeds=1, max_trials=12))
 def models(tmp_path_factory):
     from tognet.jobs.models import load_model
 
-    paths = tiny_models(tmp_path_factory.mktemp("models"))
+    paths = tiny_models(tmp_path_factory.mktemp("models"), search=True)
     return {name: load_model(str(p)) for name, p in paths.items()}
 
 
@@ -38,7 +39,7 @@ def test_every_planner_returns_a_plan_the_simulator_runs(models, objects, kind, 
     plans = {}
     for method in METHODS:
         planner = make_planner(method, sim.task, grasp_model=models["grasping"], task_model=models[task],
-                               config=FAST, sim=sim)
+                               config=FAST, sim=sim, search_model=models[f"{task}_search"])
         plan = planner.plan(obs, np.random.default_rng(5))
         plans[method] = plan
         assert plan.method == method
@@ -105,7 +106,7 @@ def test_each_method_is_one_row_of_the_table_and_a_new_row_plans(models, objects
     assert NEEDS == {m.name: m.needs for m in METHOD_TABLE}
     assert [m.name for m in METHOD_TABLE if m.baseline] == [
         "Antipodal+Random", "Task_Agn+Random", "Task_Agn+Trained", "Task_Ori+Random"]
-    assert [m.name for m in METHOD_TABLE if m.uses_sim] == ["Oracle"]
+    assert [m.name for m in METHOD_TABLE if m.uses_sim] == ["Oracle", *DIAGNOSTIC_NAMES]
     assert get_method("tog-net").kind == "ours" and get_method("Oracle").planner is not None
     with pytest.raises(ValueError, match="a grasp and an action policy, or a planner"):
         Method("half", "baseline", grasp=lambda i: CEMGrasp(i.config.policy, i.task_model))

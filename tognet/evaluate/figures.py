@@ -1,5 +1,6 @@
-"""The report's pictures: the results bar chart, sweeping by can count, the qualitative grasps, episode
-animations and the training curves of each self-supervision round."""
+"""The report's pictures: the results bar chart, sweeping by can count, where the gap to the Oracle is
+(the diagnostic rows), the qualitative grasps, episode animations and the training curves of each
+self-supervision round."""
 
 from __future__ import annotations
 
@@ -12,18 +13,25 @@ from typing import Any
 import numpy as np
 
 from tognet.evaluate.config import EvalConfig
+from tognet.evaluate.kinds import GAP_ROWS, ORACLE, ORACLE_GRASP, ORACLE_MOTION, compared, kinds_of
 from tognet.jobs.output import JobOutput
 from tognet.objects.record import ObjectRecord
 
-#: A colour per method (baselines cool and pale, ours strong, the Oracle dark and hatched).
+#: A colour per method (baselines cool and pale, ours strong, the Oracle dark and hatched; the diagnostics,
+#: half TOG-Net and half Oracle, pale with a hatch of the other half's colour).
 COLOURS = {
     "Antipodal+Random": "#9e9e9e",
     "Task_Agn+Random": "#9ecae1",
     "Task_Agn+Trained": "#3182bd",
     "Task_Ori+Random": "#fdae6b",
     "TOG-Net": "#d94801",
-    "Oracle": "#404040",
+    "TOG-Net+ActionSearch": "#6a3d9a",
+    ORACLE: "#404040",
+    ORACLE_MOTION: "#fdd0a2",
+    ORACLE_GRASP: "#bdbdbd",
 }
+#: (edge colour, hatch) of the bars that are not plain: the Oracle and the diagnostics.
+HATCHES = {ORACLE: ("black", "//"), ORACLE_MOTION: ("#404040", "//"), ORACLE_GRASP: ("#d94801", "..")}
 
 
 def _plt() -> Any:
@@ -35,9 +43,10 @@ def _plt() -> Any:
     return plt
 
 
-def _bars(ax: Any, groups: Sequence[str], methods: Sequence[str], cell: Any, title: str) -> None:
+def _bars(ax: Any, groups: Sequence[str], methods: Sequence[str], cell: Any, title: str,
+          values: bool = False) -> None:
     """Grouped bars: one group per entry of ``groups``, one bar per method; ``cell(group, method)`` gives
-    (rate, (low, high), valid) or None."""
+    (rate, (low, high), valid) or None; ``values``: each bar's rate written above it."""
     width = 0.8 / max(1, len(methods))
     x = np.arange(len(groups))
     for i, m in enumerate(methods):
@@ -48,11 +57,17 @@ def _bars(ax: Any, groups: Sequence[str], methods: Sequence[str], cell: Any, tit
             rates.append(100 * r)
             lo.append(100 * (r - c[1][0]) if c and c[0] is not None else 0)
             hi.append(100 * (c[1][1] - r) if c and c[0] is not None else 0)
-        ax.bar(x + (i - (len(methods) - 1) / 2) * width, rates, width, yerr=[lo, hi], capsize=2,
-               color=COLOURS.get(m, "#888888"), edgecolor="white" if m != "Oracle" else "black",
-               hatch="//" if m == "Oracle" else None, label=m, error_kw={"elinewidth": 0.8})
+        edge, hatch = HATCHES.get(m, ("white", None))
+        xs = x + (i - (len(methods) - 1) / 2) * width
+        ax.bar(xs, rates, width, yerr=[lo, hi], capsize=2, color=COLOURS.get(m, "#888888"), edgecolor=edge,
+               hatch=hatch, label=m, error_kw={"elinewidth": 0.8})
+        if values:  # above the whisker
+            for xi, r, up in zip(xs, rates, hi, strict=True):
+                if not np.isnan(r):
+                    ax.text(xi, r + up + 1, f"{r:.0f}", ha="center", va="bottom", fontsize=7)
     ax.set_xticks(x, groups)
-    ax.set_ylim(0, 100)
+    ax.set_ylim(0, 109 if values else 100)
+    ax.set_yticks(np.arange(0, 101, 20))
     ax.set_ylabel("task success (%)")
     ax.set_title(title)
     ax.grid(axis="y", alpha=0.3)
@@ -66,7 +81,7 @@ def results_chart(results: dict[str, Any], path: Path) -> Path:
     plt = _plt()
     tasks = list(results["tasks"])
     cats = [c for c in results["categories"] if c != "all"]
-    methods = results["methods"]
+    methods = compared(results["methods"], results.get("kinds"))  # the diagnostics: gap_chart
     per_task = max(5.0, 0.3 * len(cats) * len(methods) + 1.5)
     fig, axes = plt.subplots(1, len(tasks), figsize=(per_task * len(tasks), 4.2), squeeze=False)
     for ax, task in zip(axes[0], tasks, strict=True):
@@ -103,9 +118,47 @@ def cans_chart(results: dict[str, Any], path: Path) -> Path | None:
         return s["rate"], s["ci"], s["valid"]
 
     fig, ax = plt.subplots(figsize=(8.5, 4.0))
-    _bars(ax, subsets, results["methods"], cell, f"sweeping by number of cans ({cat})")
+    _bars(ax, subsets, compared(results["methods"], results.get("kinds")), cell,
+          f"sweeping by number of cans ({cat})")
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def gap_chart(results: dict[str, Any], path: Path) -> Path | None:
+    """Where the gap to the Oracle is: per task, by category, TOG-Net, TOG-Net's grasp with the Oracle's
+    motion, the Oracle's grasp with TOG-Net's motion and the Oracle (95 % intervals, rates written on the
+    bars). None when no task has the rows the decomposition needs (TOG-Net, the Oracle, a diagnostic)."""
+    from tognet.evaluate.harness import main_subset
+
+    tasks = [t for t in results["tasks"] if any(subs[main_subset(t)].get("gap")
+                                                for subs in results["tasks"][t]["categories"].values())]
+    if not tasks:
+        return None
+    plt = _plt()
+    kinds = kinds_of(results["methods"], results.get("kinds"))
+    methods = [m for m in GAP_ROWS if m in kinds]
+    cats = [c for c in results["categories"] if c != "all"] or list(results["categories"])
+    per_task = max(3.6, 0.32 * len(cats) * len(methods) + 1.2)
+    width = max(5.6, per_task * len(tasks))  # room for two columns of labels at least
+    fig, axes = plt.subplots(1, len(tasks), figsize=(width, 3.6), squeeze=False)
+    for ax, task in zip(axes[0], tasks, strict=True):
+        sub = main_subset(task)
+
+        def cell(cat: str, m: str, task: str = task, sub: str = sub) -> Any:
+            s = results["tasks"][task]["categories"][cat][sub]["methods"][m]
+            return s["rate"], s["ci"], s["valid"]
+
+        title = task + (" (one or two cans)" if task == "sweeping" else "")
+        _bars(ax, cats, methods, cell, title, values=True)
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    labels = [f"{m} †" if kinds[m] == "diagnostic" else m for m in labels]
+    rows = 1 if width >= 2.4 * len(methods) else -(-len(methods) // 2)  # a label needs about 2.4 in
+    fig.legend(handles, labels, loc="lower center", ncols=-(-len(methods) // rows), fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, 0.08 * rows, 1, 1))
+    path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path

@@ -8,7 +8,10 @@
       <task>/<category>/       the job files (tognet.evaluate.store)
       results.json             per task, category (and sweeping's can counts), method: success rate with
                                its 95 % Wilson interval, grasp success, failure reasons; paired differences
-                               to TOG-Net with their intervals; the fraction of the Oracle's rate; timings
+                               to TOG-Net (and to the learned action search) with their intervals; the
+                               fraction of the Oracle's rate; where the gap to the Oracle is (the
+                               diagnostic rows); how the task model rates each method's grasps; each
+                               method's kind; timings
       report.html, report.md   tognet.evaluate.report
 
 Killed at any moment and run again with ``resume=True`` and the same settings, it runs exactly the jobs
@@ -29,6 +32,18 @@ import numpy as np
 from tognet.errors import TognetError
 from tognet.evaluate.config import CATEGORIES, EvalConfig
 from tognet.evaluate.jobs import EvalJob, plan_eval_jobs, run_eval_job
+from tognet.evaluate.kinds import (
+    ACTION_SEARCH,
+    GAP_ROWS,
+    ORACLE,
+    ORACLE_GRASP,
+    ORACLE_MOTION,
+    REFERENCE,
+    SIM_NOTE,
+    compared,
+    kinds_of,
+    label,
+)
 from tognet.evaluate.stats import paired_difference, wilson
 from tognet.evaluate.store import EvalStore
 from tognet.io import file_digest
@@ -39,7 +54,6 @@ from tognet.planning.methods import METHODS, NEEDS, check_methods
 
 SETTINGS = "evaluation.json"
 RESULTS = "results.json"
-REFERENCE = "TOG-Net"
 #: Sweeping's scenes by number of cans (the paper's mix is both); hammering has one subset.
 SUBSETS = {"sweeping": {"mix": None, "one-can": 1, "two-can": 2}, "hammering": {"all": None}}
 
@@ -272,7 +286,7 @@ def run_evaluation(
                     tally[r["method"] + " ok"] += int(r["task_success"])
             if bar is not None:
                 bar.update(job.planned)
-                shown = [m for m in (REFERENCE, "Oracle") if tally[m]]
+                shown = [m for m in (REFERENCE, ORACLE) if tally[m]]
                 bar.set_postfix_str(", ".join(f"{m} {tally[m + ' ok'] / tally[m]:.0%}" for m in shown),
                                     refresh=False)
 
@@ -340,17 +354,108 @@ def _outcomes(records: Iterable[dict[str, Any]]) -> dict[tuple[str, int], bool]:
     return {(r["object_id"], int(r["scene_seed"])): bool(r["task_success"]) for r in records if r["valid"]}
 
 
+def paired(first: Sequence[dict[str, Any]], second: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """The first method's rate minus the second's over the scenes where both trials are valid
+    (:func:`paired_difference`: the difference, its 95 % interval and the 2x2 table)."""
+    a, b = _outcomes(first), _outcomes(second)
+    keys = sorted(set(a) & set(b))
+    return paired_difference([a[k] for k in keys], [b[k] for k in keys])
+
+
+def _q_t(record: dict[str, Any]) -> float | None:
+    q = (record.get("scores") or {}).get("q_t")
+    return None if q is None else float(q)
+
+
+def _rating(values: Sequence[float]) -> dict[str, Any]:
+    return {"mean_q_t": float(np.mean(values)) if values else None,
+            "median_q_t": float(np.median(values)) if values else None, "n": len(values)}
+
+
+def model_rating(per_method: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str, Any]]:
+    """How the task's TOG-Net model rates each method's chosen grasps: mean and median of the records'
+    ``scores.q_t`` (Q_T at the grasp) and their number; methods whose records carry none are left out."""
+    out = {}
+    for m, recs in per_method.items():
+        values = [q for r in recs if (q := _q_t(r)) is not None]
+        if values:
+            out[m] = _rating(values)
+    return out
+
+
+def _oracle_grasp_ratings(per_method: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
+    """The task model's rating of the Oracle's grasps, all of them and those that worked: from the Oracle's
+    own records when they carry ``q_t``, else from "Oracle grasp + TOG-Net motion" (whose grasp is the
+    Oracle's on the same scene; a record whose grasp differs from the Oracle's is left out)."""
+    oracle = {(r["object_id"], int(r["scene_seed"])): r for r in per_method.get(ORACLE, [])}
+    for source in (ORACLE, ORACLE_GRASP):
+        recs = [r for r in per_method.get(source, []) if _q_t(r) is not None]
+        if source != ORACLE:
+            recs = [r for r in recs if (o := oracle.get((r["object_id"], int(r["scene_seed"])))) is None
+                    or (o.get("grasp") is not None and r.get("grasp") is not None
+                        and np.allclose(o["grasp"], r["grasp"]))]
+        if not recs:
+            continue
+        worked = [r for r in recs if (o := oracle.get((r["object_id"], int(r["scene_seed"])))) is not None
+                  and o["valid"] and o["task_success"]]
+        return {"source": source, "all": _rating([q for r in recs if (q := _q_t(r)) is not None]),
+                "worked": _rating([q for r in worked if (q := _q_t(r)) is not None])}
+    return {}
+
+
+def gap_decomposition(per_method: dict[str, list[dict[str, Any]]], stats: dict[str, dict[str, Any]]
+                      ) -> dict[str, Any] | None:
+    """Where the gap between TOG-Net and the Oracle is, from the diagnostic rows (None unless TOG-Net, the
+    Oracle and at least one diagnostic were evaluated).
+
+    ``rates``: the four rows' rates with their Wilson intervals; ``gap``: the Oracle's rate minus
+    TOG-Net's; ``perfect_motion``: (TOG-Net grasp + Oracle motion) - TOG-Net, what a perfect motion gains
+    from TOG-Net's grasps (the grasp fixed); ``perfect_grasp``: (Oracle grasp + TOG-Net motion) - TOG-Net,
+    what a perfect grasp gains with TOG-Net's motion (the motion fixed); each with ``share_of_gap`` (the
+    gain over the gap, when the gap is positive) and ``paired`` (the paired difference over the scenes
+    where both trials are valid, with its 95 % interval); ``needs_both``: the part of the gap neither half
+    closes alone (negative when the halves close overlapping parts); ``model_rating``: how the task model
+    rates TOG-Net's grasps and the Oracle's (all, and those that worked)."""
+    if not {REFERENCE, ORACLE} <= set(per_method) or not {ORACLE_MOTION, ORACLE_GRASP} & set(per_method):
+        return None
+    rates = {m: {k: stats[m][k] for k in ("rate", "ci", "valid")} for m in GAP_ROWS if m in per_method}
+    ref, top = stats[REFERENCE]["rate"], stats[ORACLE]["rate"]
+    gap = None if ref is None or top is None else top - ref
+    out: dict[str, Any] = {"rates": rates, "gap": gap,
+                           "gap_paired": paired(per_method[ORACLE], per_method[REFERENCE])}
+    for key, m in (("perfect_motion", ORACLE_MOTION), ("perfect_grasp", ORACLE_GRASP)):
+        if m not in per_method:
+            continue
+        rate = stats[m]["rate"]
+        gain = None if ref is None or rate is None else rate - ref
+        out[key] = {"method": m, "gain": gain,
+                    "share_of_gap": gain / gap if gain is not None and gap is not None and gap > 0 else None,
+                    "paired": paired(per_method[m], per_method[REFERENCE])}
+    gains = [out[k]["gain"] for k in ("perfect_motion", "perfect_grasp") if k in out]
+    out["needs_both"] = gap - sum(gains) if len(gains) == 2 and gap is not None and None not in gains \
+        else None
+    own = [q for r in per_method[REFERENCE] if (q := _q_t(r)) is not None]
+    out["model_rating"] = {"tognet": _rating(own), "oracle_grasps": _oracle_grasp_ratings(per_method)}
+    return out
+
+
 def summarise(records: Sequence[dict[str, Any]], tasks: Sequence[str], methods: Sequence[str],
               categories: Sequence[str]) -> dict[str, Any]:
-    """results.json's numbers from the records: per task, category (and ``all`` when there are several),
-    subset (sweeping: mix, one-can, two-can) and method: :func:`rate_stats`; ``tognet_minus_method``: the
-    paired difference of TOG-Net's rate and the method's over the scenes where both trials are valid,
-    with its 95 % interval (Newcombe); ``oracle_fraction``: the method's rate over the Oracle's."""
+    """results.json's numbers from the records: ``kinds`` (each method's kind: baseline, ours, oracle or
+    diagnostic) and per task, category (and ``all`` when there are several), subset (sweeping: mix,
+    one-can, two-can) and method: :func:`rate_stats`; ``tognet_minus_method``: the paired difference of
+    TOG-Net's rate and each other method's (diagnostics included) over the scenes where both trials are
+    valid, with its 95 % interval (Newcombe); ``action_search_minus_method``: the same for the learned
+    action search against every other method that is not a diagnostic (empty when it was not evaluated);
+    ``oracle_fraction``: the method's rate over the Oracle's; ``gap``: :func:`gap_decomposition` (absent
+    without the rows it needs); ``model_rating``: :func:`model_rating`."""
     groups: dict[tuple[str, str, str], list[dict[str, Any]]] = defaultdict(list)
     for r in records:
         groups[(r["task"], r["category"], r["method"])].append(r)
     cats = list(categories) + (["all"] if len(categories) > 1 else [])
-    out: dict[str, Any] = {"methods": list(methods), "categories": cats, "reference": REFERENCE, "tasks": {}}
+    main = compared(methods)
+    out: dict[str, Any] = {"methods": list(methods), "kinds": kinds_of(methods), "categories": cats,
+                           "reference": REFERENCE, "tasks": {}}
     for task in tasks:
         tcats: dict[str, Any] = {}
         for cat in cats:
@@ -360,19 +465,19 @@ def summarise(records: Sequence[dict[str, Any]], tasks: Sequence[str], methods: 
                 per_method = {m: [r for c in members for r in groups[(task, c, m)]
                                   if n_cans is None or r.get("n_cans") == n_cans] for m in methods}
                 stats = {m: rate_stats(v) for m, v in per_method.items()}
-                diffs = {}
-                if REFERENCE in methods:
-                    ref = _outcomes(per_method[REFERENCE])
-                    for m in methods:
-                        if m == REFERENCE:
-                            continue
-                        other = _outcomes(per_method[m])
-                        keys = sorted(set(ref) & set(other))
-                        diffs[m] = paired_difference([ref[k] for k in keys], [other[k] for k in keys])
-                oracle = stats.get("Oracle", {}).get("rate")
+                diffs = {m: paired(per_method[REFERENCE], per_method[m]) for m in methods
+                         if REFERENCE in methods and m != REFERENCE}
+                search = {m: paired(per_method[ACTION_SEARCH], per_method[m]) for m in main
+                          if ACTION_SEARCH in methods and m != ACTION_SEARCH}
+                oracle = stats.get(ORACLE, {}).get("rate")
                 fraction = {m: (s["rate"] / oracle if oracle and s["rate"] is not None else None)
                             for m, s in stats.items()}
-                subsets[sub] = {"methods": stats, "tognet_minus_method": diffs, "oracle_fraction": fraction}
+                subsets[sub] = {"methods": stats, "tognet_minus_method": diffs,
+                                "action_search_minus_method": search, "oracle_fraction": fraction,
+                                "model_rating": model_rating(per_method)}
+                gap = gap_decomposition(per_method, stats)
+                if gap is not None:
+                    subsets[sub]["gap"] = gap
             tcats[cat] = subsets
         timing = {m: _timing([r for c in categories for r in groups[(task, c, m)]]) for m in methods}
         out["tasks"][task] = {"categories": tcats, "timing": timing}
@@ -409,7 +514,7 @@ def format_results(results: dict[str, Any]) -> str:
         cats = list(tres["categories"])
         rows = [["method", *cats]]
         for m in results["methods"]:
-            row = [m]
+            row = [label(m, results.get("kinds"))]
             for c in cats:
                 s = tres["categories"][c][sub]["methods"][m]
                 ci = s["ci"] or [None, None]
@@ -419,7 +524,10 @@ def format_results(results: dict[str, Any]) -> str:
         for row in rows:
             cells = [row[0].ljust(widths[0])] + [c.rjust(w) for c, w in zip(row[1:], widths[1:], strict=True)]
             lines.append("  " + "  ".join(cells))
+    if any(label(m, results.get("kinds")) != m for m in results["methods"]):
+        lines.append(SIM_NOTE)
     return "\n".join(lines)
 
 
-__all__ = ["METHODS", "EvalError", "format_results", "rate_stats", "run_evaluation", "summarise"]
+__all__ = ["METHODS", "REFERENCE", "EvalError", "format_results", "gap_decomposition", "model_rating",
+           "paired", "rate_stats", "run_evaluation", "summarise"]

@@ -13,7 +13,19 @@ from pathlib import Path
 from typing import Any
 
 from tognet.evaluate.config import EvalConfig
-from tognet.evaluate.harness import REFERENCE, main_subset
+from tognet.evaluate.harness import main_subset
+from tognet.evaluate.kinds import (
+    ACTION_SEARCH,
+    GAP_ROWS,
+    ORACLE,
+    ORACLE_GRASP,
+    ORACLE_MOTION,
+    REFERENCE,
+    SIM_NOTE,
+    compared,
+    kinds_of,
+    may_be_best,
+)
 from tognet.objects.record import ObjectRecord
 
 METHOD_NOTES = {
@@ -25,9 +37,19 @@ METHOD_NOTES = {
     "Task_Agn+Trained": "CEM on Q_G; the task model's action mean at that grasp",
     "Task_Ori+Random": "CEM on the task model's Q_T = Q_T|G · Q_G; random action",
     "TOG-Net": "CEM on Q_T; the task model's action mean (the paper's method)",
+    ACTION_SEARCH: "beyond the paper: the action-conditioned model Q_T|G,a (trained on every trial, "
+                   "failures included) rates each grasp by the best action it allows, Q_G · max_a "
+                   "Q_T|G,a, instead of by the collection policy's action; at the chosen grasp CEM "
+                   "searches the action under Q_T|G,a (the <task>_search model)",
     "Oracle": "simulator ground truth: NMS modes held both ways round, each tried in the simulator with "
               "actions computed from the tool's pose in the hand, on execution-noise seeds the evaluation "
               "does not use; an upper bound, not a method a robot could run",
+    ORACLE_MOTION: "diagnostic, uses the simulator: TOG-Net's grasp (CEM on Q_T), then the Oracle's action "
+                   "search from that grasp in the simulator; its gain over TOG-Net is what a perfect "
+                   "motion is worth from TOG-Net's grasps",
+    ORACLE_GRASP: "diagnostic, uses the simulator: the Oracle's grasp (its whole simulator search), then "
+                  "the task model's action mean at it; its gain over TOG-Net is what a perfect grasp is "
+                  "worth with TOG-Net's motion",
 }
 
 
@@ -70,6 +92,17 @@ def _pct(x: float | None, digits: int = 1) -> str:
     return "n/a" if x is None else f"{100 * x:.{digits}f}"
 
 
+def _name(results: dict[str, Any], m: str) -> Any:
+    """A method's name cell: a diagnostic's marked as using the simulator (and styled apart)."""
+    if kinds_of([m], results.get("kinds"))[m] == "diagnostic":
+        return f"{m} †", "diag"
+    return m
+
+
+def _has_diagnostics(results: dict[str, Any]) -> bool:
+    return any(k == "diagnostic" for k in kinds_of(results["methods"], results.get("kinds")).values())
+
+
 def _rate_cell(s: dict[str, Any]) -> str:
     if s["rate"] is None:
         return "n/a (0)"
@@ -78,18 +111,19 @@ def _rate_cell(s: dict[str, Any]) -> str:
 
 def success_table(results: dict[str, Any], task: str, sub: str, title: str, grasp: bool = False) -> Table:
     """Methods x categories: task (or grasp) success %, 95 % Wilson interval, valid trials; the best
-    method that is not the Oracle in bold."""
+    method in bold (of the baselines and ours: not the Oracle, not a diagnostic); diagnostics marked."""
     tres = results["tasks"][task]["categories"]
     cats = list(tres)
-    table = Table(title, ["method", *cats])
+    table = Table(title, ["method", *cats], note=SIM_NOTE if _has_diagnostics(results) and not grasp else "")
     key = "grasp_rate" if grasp else "rate"
+    kinds = results.get("kinds")
     best = {}
     for c in cats:
         rates = {m: s[key] for m, s in tres[c][sub]["methods"].items()
-                 if m != "Oracle" and s[key] is not None}
+                 if may_be_best(m, kinds) and s[key] is not None}
         best[c] = max(rates.values()) if rates else None
     for m in results["methods"]:
-        row: list[Any] = [m]
+        row: list[Any] = [_name(results, m)]
         for c in cats:
             s = tres[c][sub]["methods"][m]
             if grasp:
@@ -97,28 +131,33 @@ def success_table(results: dict[str, Any], task: str, sub: str, title: str, gras
                     f"{_pct(s['grasp_rate'])} [{_pct(s['grasp_ci'][0])}, {_pct(s['grasp_ci'][1])}]"
             else:
                 text = _rate_cell(s)
-            top = m != "Oracle" and s[key] is not None and best[c] and s[key] == best[c]
+            top = may_be_best(m, kinds) and s[key] is not None and best[c] and s[key] == best[c]
             row.append((text, "best") if top else text)
         table.rows.append(row)
     return table
 
 
-def paired_table(results: dict[str, Any], task: str, sub: str) -> Table | None:
-    """TOG-Net's rate minus each method's, over the same scenes, with the 95 % interval (Newcombe)."""
+def paired_table(results: dict[str, Any], task: str, sub: str, first: str = REFERENCE,
+                 key: str = "tognet_minus_method") -> Table | None:
+    """``first``'s rate minus each other method's (not the diagnostics: they have the gap section), over
+    the same scenes, with the 95 % interval (Newcombe); from the subsets' ``key`` (TOG-Net's by default,
+    ``action_search_minus_method`` for the learned action search). None when ``first`` was not evaluated."""
     tres = results["tasks"][task]["categories"]
     cats = list(tres)
-    if REFERENCE not in results["methods"]:
+    if first not in results["methods"]:
         return None
-    table = Table(f"{task}: TOG-Net minus method, paired by scene (percentage points)", ["method", *cats],
-                  note="Positive: TOG-Net succeeds more often. Bold (green): the 95 % interval lies above "
-                       "zero, TOG-Net is better; italic (red): below zero, the method is better. In "
+    title = f"{task}: TOG-Net minus method, paired by scene (percentage points)" if first == REFERENCE else \
+        f"{task}: {first} minus method, paired, 95 % interval (percentage points)"
+    table = Table(title, ["method", *cats],
+                  note=f"Positive: {first} succeeds more often. Bold (green): the 95 % interval lies above "
+                       f"zero, {first} is better; italic (red): below zero, the method is better. In "
                        "parentheses: the pairs (scenes where both trials are valid).")
-    for m in results["methods"]:
-        if m == REFERENCE:
+    for m in compared(results["methods"], results.get("kinds")):
+        if m == first:
             continue
         row: list[Any] = [m]
         for c in cats:
-            d = tres[c][sub]["tognet_minus_method"].get(m)
+            d = tres[c][sub].get(key, {}).get(m)
             if not d or d["pairs"] == 0:
                 row.append("n/a")
                 continue
@@ -131,15 +170,16 @@ def paired_table(results: dict[str, Any], task: str, sub: str) -> Table | None:
 
 def oracle_table(results: dict[str, Any], task: str, sub: str) -> Table | None:
     """Each method's rate as a fraction of the Oracle's."""
-    if "Oracle" not in results["methods"]:
+    if ORACLE not in results["methods"]:
         return None
     tres = results["tasks"][task]["categories"]
     cats = list(tres)
     table = Table(f"{task}: fraction of the Oracle's success rate (%)", ["method", *cats])
     for m in results["methods"]:
-        if m == "Oracle":
+        if m == ORACLE:
             continue
-        table.rows.append([m, *(_pct(tres[c][sub]["oracle_fraction"].get(m), 0) for c in cats)])
+        table.rows.append([_name(results, m),
+                           *(_pct(tres[c][sub]["oracle_fraction"].get(m), 0) for c in cats)])
     return table
 
 
@@ -161,8 +201,8 @@ def failure_table(results: dict[str, Any], task: str, sub: str) -> Table:
                        "candidate.")
     for m, s in stats.items():
         n = s["valid"] or 1
-        table.rows.append([m, _pct(s["rate"]), *(_pct(s["failures"].get(r, 0) / n) for r in cols),
-                           str(s["invalid"])])
+        table.rows.append([_name(results, m), _pct(s["rate"]),
+                           *(_pct(s["failures"].get(r, 0) / n) for r in cols), str(s["invalid"])])
     return table
 
 
@@ -174,7 +214,8 @@ def cans_tables(results: dict[str, Any]) -> list[Table]:
     for cat, subsets in results["tasks"]["sweeping"]["categories"].items():
         table = Table(f"sweeping, {cat}: task success % [95 % interval] (valid trials)", ["method", *subsets])
         for m in results["methods"]:
-            table.rows.append([m, *(_rate_cell(subsets[sub]["methods"][m]) for sub in subsets)])
+            table.rows.append([_name(results, m),
+                               *(_rate_cell(subsets[sub]["methods"][m]) for sub in subsets)])
         tables.append(table)
     tables[-1].note = ("With one can almost any grasp that lifts the tool can succeed; with two the tool "
                        "must span both, and the grasp decides whether it can.")
@@ -188,9 +229,118 @@ def timing_table(results: dict[str, Any]) -> Table:
                   ["task", "method", *stages])
     for task, tres in results["tasks"].items():
         for m, t in tres["timing"].items():
-            table.rows.append([task, m, *("" if k not in t else f"{t[k]:.1f}" if k == "search_trials"
-                                          else f"{1000 * t[k]:.0f}" for k in stages)])
+            table.rows.append([task, _name(results, m),
+                               *("" if k not in t else f"{t[k]:.1f}" if k == "search_trials"
+                                 else f"{1000 * t[k]:.0f}" for k in stages)])
     return table
+
+
+GAP_NOTE = ("Two diagnostic rows (†: they use the simulator's ground truth) split the gap between TOG-Net "
+            "and the Oracle into its grasp and its motion. TOG-Net grasp + Oracle motion keeps TOG-Net's "
+            "grasp and lets the Oracle search the motion from it: its gain over TOG-Net is what a perfect "
+            "motion is worth (the grasp fixed). Oracle grasp + TOG-Net motion takes the Oracle's grasp and "
+            "TOG-Net's motion: its gain is what a perfect grasp is worth (the motion fixed). What neither "
+            "closes alone needs both.")
+
+
+def _q(x: float | None) -> str:
+    """A Q_T value: two decimals, or one significant digit below 0.01."""
+    return "n/a" if x is None else f"{x:.2f}" if x >= 0.01 else f"{x:.1g}"
+
+
+def _gap_categories(results: dict[str, Any], task: str) -> list[str]:
+    sub = main_subset(task)
+    tres = results["tasks"][task]["categories"]
+    return [c for c in tres if tres[c][sub].get("gap")]
+
+
+def _gain_cell(gain: float | None, pair: dict[str, Any] | None, share: float | None) -> Any:
+    if gain is None:
+        return "n/a"
+    text = f"{100 * gain:+.1f}"
+    if pair and pair["pairs"]:
+        text += f" [{100 * pair['ci'][0]:+.1f}, {100 * pair['ci'][1]:+.1f}]"
+    if share is not None:
+        text += f", {100 * share:.0f} % of the gap"
+    if not pair or not pair["pairs"]:
+        return text
+    return (text, "pos") if pair["ci"][0] > 0 else (text, "neg") if pair["ci"][1] < 0 else text
+
+
+def gap_tables(results: dict[str, Any], task: str) -> list[Table]:
+    """The "where the gap is" tables of a task (main subset), one row per category that has a ``gap``:
+    the four rates with their Wilson intervals; the gap and what each half closes alone; how the task
+    model rates each method's grasps. Empty when no category has the rows the decomposition needs."""
+    sub = main_subset(task)
+    tres = results["tasks"][task]["categories"]
+    cats = _gap_categories(results, task)
+    if not cats:
+        return []
+    rows = [m for m in GAP_ROWS if m in results["methods"]]
+    what = " (the paper's mix: one or two cans)" if task == "sweeping" else ""
+    rates = Table(f"{task}{what}: task success % [95 % interval] (valid trials)",
+                  ["category", *(_label(results, m) for m in rows)])
+    for c in cats:
+        rates.rows.append([c, *(_rate_cell(tres[c][sub]["methods"][m]) for m in rows)])
+    split = Table(f"{task}: the gap to the Oracle, and what each half closes alone (percentage points)",
+                  ["category", "gap: Oracle − TOG-Net", "perfect motion (TOG-Net's grasp fixed)",
+                   "perfect grasp (TOG-Net's motion fixed)", "needs both"],
+                  note="Perfect motion: (TOG-Net grasp + Oracle motion) − TOG-Net; perfect grasp: (Oracle "
+                       "grasp + TOG-Net motion) − TOG-Net; each a difference of two rates of the success "
+                       "table, in brackets its paired 95 % interval (scenes where both trials are valid), "
+                       "and its share of the gap. Needs both: the part of the gap neither half closes alone "
+                       "(negative when the two close overlapping parts). Bold: the interval lies above "
+                       "zero; italic: below.")
+    for c in cats:
+        g = tres[c][sub]["gap"]
+        motion, grasp = g.get("perfect_motion") or {}, g.get("perfect_grasp") or {}
+        both = g.get("needs_both")
+        share = both / g["gap"] if both is not None and g["gap"] is not None and g["gap"] > 0 else None
+        rest = "n/a" if both is None else f"{100 * both:+.1f}" + \
+            (f", {100 * share:.0f} % of the gap" if share is not None else "")
+        split.rows.append([c, _gain_cell(g["gap"], g.get("gap_paired"), None),
+                           _gain_cell(motion.get("gain"), motion.get("paired"), motion.get("share_of_gap"))
+                           if motion else "not evaluated",
+                           _gain_cell(grasp.get("gain"), grasp.get("paired"), grasp.get("share_of_gap"))
+                           if grasp else "not evaluated",
+                           rest])
+    tables = [rates, split]
+    rated = [m for m in results["methods"] if any(m in tres[c][sub].get("model_rating", {}) for c in cats)]
+    if rated:
+        rating = Table(f"{task}: how the {task} model rates each method's grasps (Q_T at the chosen grasp: "
+                       "median, mean, trials)", ["method", *cats],
+                       note=f"{ORACLE_GRASP} holds the Oracle's grasp of the same scene, so its row is how "
+                            "the model rates the Oracle's grasps." if ORACLE_GRASP in rated else "")
+        for m in rated:
+            row: list[Any] = [_name(results, m)]
+            for c in cats:
+                r = tres[c][sub].get("model_rating", {}).get(m)
+                row.append(f"{_q(r['median_q_t'])} ({_q(r['mean_q_t'])}, {r['n']})" if r else "n/a")
+            rating.rows.append(row)
+        tables.append(rating)
+    return tables
+
+
+def gap_rating_lines(results: dict[str, Any], task: str) -> list[str]:
+    """Per category with a gap: how the task model rates the Oracle's grasps against TOG-Net's own."""
+    sub = main_subset(task)
+    tres = results["tasks"][task]["categories"]
+    lines = []
+    for c in _gap_categories(results, task):
+        rating = tres[c][sub]["gap"].get("model_rating") or {}
+        own, oracle = rating.get("tognet") or {}, rating.get("oracle_grasps") or {}
+        mine = f"its own (TOG-Net's) at {_q(own['median_q_t'])} (median of {own['n']})" if own.get("n") \
+            else "its own: no rating recorded"
+        if oracle and oracle["all"]["n"]:
+            worked = oracle["worked"]
+            extra = f"; {_q(worked['median_q_t'])} for the {worked['n']} that worked" if worked["n"] else ""
+            everything = oracle["all"]
+            lines.append(f"{c}: the {task} model rates the Oracle's grasps at Q_T "
+                         f"{_q(everything['median_q_t'])} (median of {everything['n']}{extra}), {mine}.")
+        else:
+            lines.append(f"{c}: the Oracle's grasps are not rated (that needs the {ORACLE_GRASP} row); the "
+                         f"{task} model rates {mine.removeprefix('its own ')}.")
+    return lines
 
 
 def pick_examples(records: Sequence[dict[str, Any]], task: str, method: str
@@ -214,6 +364,26 @@ def _data_uri(path: Path) -> str:
     return f"data:{mime};base64,{base64.b64encode(path.read_bytes()).decode()}"
 
 
+def _label(results: dict[str, Any], m: str) -> str:
+    name = _name(results, m)
+    return name[0] if isinstance(name, tuple) else name
+
+
+def methods_table(results: dict[str, Any], title: str = "") -> Table:
+    """What each evaluated method is (diagnostics marked, with the note saying what the mark means)."""
+    return Table(title, ["method", "grasp and action"],
+                 [[_name(results, m), METHOD_NOTES.get(m, "")] for m in results["methods"]],
+                 note=SIM_NOTE if _has_diagnostics(results) else "", wrap=True)
+
+
+def _chart_note(results: dict[str, Any]) -> str:
+    note = "Bars: task success over valid trials; whiskers: 95 % Wilson intervals. Hatched: the Oracle " \
+           "(upper bound)."
+    if _has_diagnostics(results):
+        note += " The diagnostic rows (†) are not drawn here: they use the simulator, see where the gap is."
+    return note
+
+
 CSS = """
 body{font-family:-apple-system,Segoe UI,Helvetica,Arial,sans-serif;margin:24px auto;max-width:1300px;
 color:#222;line-height:1.4;padding:0 16px}
@@ -223,6 +393,7 @@ table{border-collapse:collapse;font-size:12.5px;margin:4px 0}
 td,th{border:1px solid #ddd;padding:3px 8px;text-align:right;white-space:nowrap}
 td:first-child,th:first-child{text-align:left}th{background:#f4f4f4}
 td.best,td.pos{font-weight:bold;background:#eaf6ea}td.neg{font-style:italic;background:#fbeaea}
+td.diag{font-style:italic;color:#555}ul.lines{margin:4px 0 8px;font-size:13px}
 table.wrap td,table.wrap th{white-space:normal;text-align:left}
 .row{display:flex;flex-wrap:wrap;gap:8px 36px;align-items:flex-start}.tbl{max-width:100%}
 .tbl .note{max-width:560px}
@@ -246,6 +417,7 @@ def write_report(out: Path, results: dict[str, Any], records: Sequence[dict[str,
     pictures: dict[str, Path | None] = {
         "results": figures.results_chart(results, fig_dir / "results.png"),
         "cans": figures.cans_chart(results, fig_dir / "sweeping_cans.png"),
+        "gap": figures.gap_chart(results, fig_dir / "gap.png"),
     }
     loaded = {}
     if models:
@@ -311,7 +483,9 @@ def _tables(results: dict[str, Any]) -> list[tuple[str, list[Table]]]:
         what = " (the paper's mix: one or two cans)" if task == "sweeping" else ""
         tables = [success_table(results, task, sub, f"{task}{what}: task success % [95 % interval] (valid "
                                                     "trials)")]
-        tables += [t for t in (paired_table(results, task, sub), oracle_table(results, task, sub)) if t]
+        tables += [t for t in (paired_table(results, task, sub),
+                               paired_table(results, task, sub, ACTION_SEARCH, "action_search_minus_method"),
+                               oracle_table(results, task, sub)) if t]
         tables.append(success_table(results, task, sub, f"{task}: grasp success % [95 % interval]",
                                     grasp=True))
         tables.append(failure_table(results, task, sub))
@@ -350,16 +524,22 @@ def _html(results: dict[str, Any], pictures: dict[str, Path | None],
              f"<style>{CSS}</style></head><body>",
              f"<h1>TOG-Net evaluation in simulation</h1><p class='note'>{html.escape(date)}</p><ul>",
              *(f"<li>{html.escape(line)}</li>" for line in _settings_lines(results, run)), "</ul>",
-             "<h2>Methods</h2>", Table("", ["method", "grasp and action"],
-                                       [[m, METHOD_NOTES.get(m, "")] for m in results["methods"]],
-                                       wrap=True).html(),
+             "<h2>Methods</h2>", methods_table(results).html(),
              "<h2>Task success by category</h2>", img("results", "bar chart of task success"),
-             "<p class='note'>Bars: task success over valid trials; whiskers: 95 % Wilson intervals. "
-             "Hatched: the Oracle (upper bound).</p>"]
+             f"<p class='note'>{html.escape(_chart_note(results))}</p>"]
     for task, tables in _tables(results):
         parts.append(f"<h2>{html.escape(task)}</h2><div class='row'>")
         parts += [t.html() for t in tables]
         parts.append("</div>")
+    gap_tasks = [t for t in results["tasks"] if _gap_categories(results, t)]
+    if gap_tasks:
+        parts += ["<h2>Where the gap is: grasp or motion</h2>",
+                  f"<p class='note'>{html.escape(GAP_NOTE)}</p>",
+                  img("gap", "the gap to the Oracle, grasp and motion")]
+        for task in gap_tasks:
+            parts.append(f"<h3>{html.escape(task)}</h3><ul class='lines'>")
+            parts += [f"<li>{html.escape(line)}</li>" for line in gap_rating_lines(results, task)]
+            parts += ["</ul><div class='row'>", *(t.html() for t in gap_tables(results, task)), "</div>"]
     cans = cans_tables(results)
     if cans:
         parts += ["<h2>Sweeping by number of cans</h2>", img("cans", "sweeping by can count"),
@@ -377,7 +557,8 @@ def _html(results: dict[str, Any], pictures: dict[str, Path | None],
             continue
         parts.append(f"<h3>{html.escape(task)}</h3><div class='gifs'>")
         parts += [f"<figure><img src='{_data_uri(p)}' alt='{html.escape(m)} {html.escape(kind)}'>"
-                  f"<figcaption><b>{html.escape(m)}</b> {html.escape(cap)}</figcaption></figure>"
+                  f"<figcaption><b>{html.escape(_label(results, m))}</b> {html.escape(cap)}</figcaption>"
+                  "</figure>"
                   for m, kind, p, cap in items]
         parts.append("</div>")
     parts.append("<h2>Training: each self-supervision round</h2>")
@@ -397,11 +578,18 @@ def _markdown(results: dict[str, Any], pictures: dict[str, Path | None],
 
     parts = ["# TOG-Net evaluation in simulation", "",
              *(f"- {line}" for line in _settings_lines(results, run)),
-             "", Table("Methods", ["method", "grasp and action"],
-                       [[m, METHOD_NOTES.get(m, "")] for m in results["methods"]]).markdown(),
-             "## Task success by category", "", img("results", "task success by category")]
+             "", methods_table(results, "Methods").markdown(),
+             "## Task success by category", "", img("results", "task success by category"), "",
+             _chart_note(results), ""]
     for task, tables in _tables(results):
         parts += [f"## {task}", ""] + [t.markdown() for t in tables]
+    gap_tasks = [t for t in results["tasks"] if _gap_categories(results, t)]
+    if gap_tasks:
+        parts += ["## Where the gap is: grasp or motion", "", GAP_NOTE, "",
+                  img("gap", "the gap to the Oracle, grasp and motion")]
+        for task in gap_tasks:
+            parts += [f"### {task}", "", *(f"- {line}" for line in gap_rating_lines(results, task)), ""]
+            parts += [t.markdown() for t in gap_tables(results, task)]
     cans = cans_tables(results)
     if cans:
         parts += ["## Sweeping by number of cans", "", img("cans", "sweeping by can count")]
@@ -409,7 +597,8 @@ def _markdown(results: dict[str, Any], pictures: dict[str, Path | None],
     parts += ["## Where each model grasps", "", img("qualitative", "grasps on depth images")]
     parts += ["## Episodes (GIFs at real speed)", ""] + ([gif_note, ""] if gif_note else [])
     for task, items in gifs.items():
-        parts += [f"### {task}", ""] + [f"- **{m}** {cap}: ![{m} {kind}]({p.relative_to(out).as_posix()})"
+        parts += [f"### {task}", ""] + [f"- **{_label(results, m)}** {cap}: "
+                                         f"![{m} {kind}]({p.relative_to(out).as_posix()})"
                                          for m, kind, p, cap in items] + [""]
     parts += ["## Training: each self-supervision round", "",
               img("curves", "training curves") or "No pipeline run folder given.", "",
