@@ -17,8 +17,9 @@ Actions are ordered by their predicted success, less ``pessimism`` times the dis
 members (an ensemble: a maximum over many actions otherwise finds those the model overrates where its
 data is thin), plus ``progress_weight`` times the predicted progress (the task's graded outcome), which
 orders actions where success is unlikely everywhere. ``trust_region`` > 0 keeps every action near the
-candidate's own action mean. All draws come from the
-generator given, so a search is reproducible. Pure numpy around the predictor's two calls
+candidate's own action mean. The final pick among the CEM's best candidates averages each one's score
+over ``robust_samples`` small perturbations, so that it keeps a margin from a failure region's edge. All
+draws come from the generator given, so a search is reproducible. Pure numpy around the predictor's two calls
 (:meth:`tognet.model.predict.TOGNetPredictor.encode` and ``score_actions``).
 """
 
@@ -124,7 +125,30 @@ def refine_actions(model: Any, enc: Any, rows: NDArray[np.intp], start: NDArray[
         best_a[better] = draws[r, first][better]
         best_s[better] = success[r, first][better]
         best_o[better] = order[r, first][better]
+        last = np.take_along_axis(draws, np.argsort(-order, axis=1)[:, : config.robust_candidates, None],
+                                  axis=1)
+    if config.robust_samples > 0 and config.iterations > 0:
+        pool = np.concatenate([best_a[:, None], last], axis=1)  # (M, C, 4), the best so far first
+        best_a, best_s = _robust_choice(model, enc, rows, pool, low, high, config, rng)
     return best_a, best_s
+
+
+def _robust_choice(model: Any, enc: Any, rows: NDArray[np.intp], pool: NDArray[np.float64],
+                   low: NDArray[np.float64], high: NDArray[np.float64], config: ActionSearchConfig,
+                   rng: np.random.Generator) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Of each row's candidate actions ``pool`` (M, C, 4), the one whose order score averaged over
+    ``robust_samples`` perturbations (the same ones for every candidate) is highest; (M, 4) and the
+    averaged success (M,)."""
+    m, c, _ = pool.shape
+    k = config.robust_samples
+    noise = rng.standard_normal((k, 4)) * np.asarray(config.robust_std)
+    shaken = np.clip(pool[:, :, None, :] + noise[None, None], low[:, None, None], high[:, None, None])
+    scores = model.score_actions(enc, shaken.reshape(m, c * k, 4), rows)
+    order = _order(scores, config).reshape(m, c, k).mean(axis=2)
+    success = np.asarray(scores.success, np.float64).reshape(m, c, k).mean(axis=2)
+    pick = order.argmax(axis=1)
+    r = np.arange(m)
+    return pool[r, pick], success[r, pick]
 
 
 def search(model: Any, crops: NDArray[np.float32], z: NDArray[np.float32], low: NDArray[np.float64],

@@ -40,6 +40,20 @@ class ActionSearchConfig(Config):
         (0.004, 0.004, 0.002, 0.02),
         "Floor of the CEM's std-dev per dimension, so the search does not collapse onto one draw.",
     )
+    robust_samples: int = doc(
+        8,
+        "Perturbed copies of each of the CEM's final candidate actions over which their predicted success "
+        "is averaged before the best is taken (0: no averaging). The best-scored action of a learned Q "
+        "often sits on the edge of a failure region (the tool brought down on the can or the slot), where "
+        "a small error of the model or of the execution tips it over; the average prefers the middle of a "
+        "region that works.",
+    )
+    robust_std: tuple[float, float, float, float] = doc(
+        (0.01, 0.01, 0.005, 0.05),
+        "Std-dev of those perturbations (a_x, a_y, a_z m; a_phi rad): a little more than the execution "
+        "noise on the start pose, the margin an action should keep from a failure region.",
+    )
+    robust_candidates: int = doc(16, "How many of the final CEM candidates (best first) are averaged so.")
     pessimism: float = doc(
         1.0,
         "How many std-devs of the members' disagreement (ArchConfig.action_members) are taken off an "
