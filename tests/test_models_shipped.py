@@ -19,13 +19,15 @@ def test_a_shipped_model_is_the_task_it_is_named_for(name):
     summary = json.loads((MODELS_DIR / f"{name}.json").read_text())
     assert summary["name"] == name
     assert summary["checkpoint_sha256"] == hashlib.sha256(path.read_bytes()).hexdigest()
-    assert TOGNetPredictor.load(path).task == name
+    model = TOGNetPredictor.load(path)
+    assert model.task == name.removesuffix("_search")
+    assert model.action_conditioned == name.endswith("_search")  # the learned action search's models
     # Its summary's last round is the one the checkpoint came from, with held-out metrics.
     assert summary["rounds"] and summary["rounds"][-1]["model"]
 
 
 def test_every_registered_task_ships_a_model():
-    assert set(TASK_NAMES) | {"grasping"} == set(NAMES)
+    assert set(TASK_NAMES) | {"grasping"} | {f"{t}_search" for t in TASK_NAMES} == set(NAMES)
 
 
 def test_an_unknown_name_is_refused_with_the_shipped_list():
