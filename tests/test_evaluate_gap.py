@@ -201,3 +201,27 @@ def test_the_report_keeps_diagnostics_out_of_the_main_comparison(tmp_path, resul
         assert f"<td>{name}</td>" not in page
         assert page.count(f"<td class='diag'>{name} †</td>") >= 5
     assert "uses the simulator's ground truth" in page
+
+
+def test_learning_curve_from_the_rounds_summaries(tmp_path):
+    import json
+
+    from tognet.evaluate.figures import learning_curve, round_summaries
+
+    def summary(episodes, rate, greedy=None):
+        by = {"nms+uniform": {"episodes": episodes, "task_success": int(rate * episodes)}}
+        if greedy is not None:
+            by["search+search"] = {"episodes": 100, "task_success": greedy}
+        return {"episodes": episodes, "task_success_rate": rate, "by_source": by}
+
+    for k, s in ((1, summary(2000, 0.03)), (2, summary(1000, 0.1, greedy=15)), (10, summary(1000, 0.2, 32))):
+        folder = tmp_path / "hammering" / f"round{k}" / "data"
+        folder.mkdir(parents=True)
+        (folder / "summary.json").write_text(json.dumps(s))
+    got = round_summaries(tmp_path, "hammering")
+    assert [s["episodes"] for s in got] == [2000, 1000, 1000]  # round 10 after round 2, not before
+    path = learning_curve(tmp_path, ["hammering", "sweeping"], tmp_path / "lc.png")
+    assert path is not None and path.stat().st_size > 1000
+    (tmp_path / "sweeping" / "round1").mkdir(parents=True)
+    (tmp_path / "sweeping" / "round1" / "summary.json").write_text(json.dumps(summary(500, 0.2)))
+    assert learning_curve(tmp_path, ["sweeping"], tmp_path / "none.png") is None  # no greedy trials

@@ -348,3 +348,60 @@ def training_curves(run_dir: Path, tasks: Sequence[str], path: Path) -> Path | N
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return path
+
+
+#: The greedy trials of an epsilon-greedy round, by (grasp source + action source): the paper's TOG-Net
+#: (CEM grasp, the policy's action) and the learned action search (its grasp, its action).
+GREEDY_SOURCES = ("cem+policy", "search+search")
+
+
+def round_summaries(run_dir: Path, task: str) -> list[dict[str, Any]]:
+    """The collection summaries of a run's rounds for ``task``, in order
+    (``<task>/round<k>/data/summary.json`` or ``<task>/round<k>/summary.json``)."""
+    found: dict[int, Path] = {}
+    for pattern in ("round*/data/summary.json", "round*/summary.json"):
+        for file in (run_dir / task).glob(pattern):
+            name = file.parent.parent.name if file.parent.name == "data" else file.parent.name
+            digits = name.removeprefix("round")
+            if digits.isdigit():
+                found.setdefault(int(digits), file)
+    return [json.loads(found[k].read_text()) for k in sorted(found)]
+
+
+def learning_curve(run_dir: Path, tasks: Sequence[str], path: Path) -> Path | None:
+    """Per task, the greedy policy's task success in each round against the trials collected before it
+    (the data its model was trained on), beside the round's overall task success: whether more data is
+    still paying. From the rounds' collection summaries; None when no round has greedy trials."""
+    series = {}
+    for task in tasks:
+        seen, points = 0, []
+        for summary in round_summaries(run_dir, task):
+            greedy = [summary.get("by_source", {}).get(k) for k in GREEDY_SOURCES]
+            greedy = [g for g in greedy if g and g.get("episodes")]
+            rate = (sum(g["task_success"] for g in greedy) / sum(g["episodes"] for g in greedy)
+                    if greedy else None)
+            points.append((seen, rate, summary.get("task_success_rate")))
+            seen += int(summary.get("episodes", 0))
+        if any(r is not None for _, r, _ in points):
+            series[task] = points
+    if not series:
+        return None
+    plt = _plt()
+    fig, axes = plt.subplots(1, len(series), figsize=(4.2 * len(series), 3.2), squeeze=False)
+    for ax, (task, points) in zip(axes[0], series.items(), strict=True):
+        x = [s / 1000 for s, _, _ in points]
+        ax.plot(x, [100 * r if r is not None else np.nan for _, r, _ in points], "o-", color="#6a3d9a",
+                label="greedy trials")
+        ax.plot(x, [100 * a if a is not None else np.nan for _, _, a in points], "s--", color="#888888",
+                label="all trials of the round")
+        ax.set_xlabel("trials collected before the round (thousands)")
+        ax.set_ylabel("task success (%)")
+        ax.set_title(f"{task}: learning curve")
+        ax.set_ylim(bottom=0)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path

@@ -430,6 +430,7 @@ def write_report(out: Path, results: dict[str, Any], records: Sequence[dict[str,
     run = Path(run_dir) if run_dir else next((r for t in tasks if (r := figures.find_run_dir(models.get(t)))),
                                              None)
     pictures["curves"] = figures.training_curves(run, tasks, fig_dir / "training_curves.png") if run else None
+    pictures["learning"] = figures.learning_curve(run, tasks, fig_dir / "learning_curve.png") if run else None
     gifs, gif_note = _animations(out, results, records, objects, config, executor, log) if animations else \
         ({t: [] for t in tasks}, "Animations not made (--no-animations).")
     html_path, md_path = out / "report.html", out / "report.md"
@@ -565,6 +566,10 @@ def _html(results: dict[str, Any], pictures: dict[str, Path | None],
     parts.append(img("curves", "training curves") if pictures.get("curves") else
                  "<p class='note'>No pipeline run folder: pass --run RUN_DIR (a `tognet pipeline` "
                  "output).</p>")
+    if pictures.get("learning"):
+        parts.append("<p>The greedy policy's task success in each round against the trials collected "
+                     "before it (the data its model learnt from), with exploration noise:</p>")
+        parts.append(img("learning", "learning curve"))
     parts += ["<h2>Time</h2>", timing_table(results).html(), "</body></html>"]
     return "\n".join(parts)
 
@@ -602,5 +607,6 @@ def _markdown(results: dict[str, Any], pictures: dict[str, Path | None],
                                          for m, kind, p, cap in items] + [""]
     parts += ["## Training: each self-supervision round", "",
               img("curves", "training curves") or "No pipeline run folder given.", "",
+              img("learning", "learning curve") if pictures.get("learning") else "", "",
               timing_table(results).markdown()]
     return "\n".join(parts) + "\n"
