@@ -135,7 +135,7 @@ def oracle_for(sim: Any, config: PlanConfig) -> OraclePlanner:
     the diagnostic that takes its grasp (which then reuses the Oracle's last plan instead of searching
     again)."""
     per_sim = _ORACLES.setdefault(sim, {})
-    key = config.to_json() if hasattr(config, "to_json") else repr(config)
+    key = repr(config)  # frozen dataclasses all the way down: equal settings, equal text
     if key not in per_sim:
         per_sim[key] = OraclePlanner(sim, config)
     return per_sim[key]
