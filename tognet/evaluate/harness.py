@@ -286,7 +286,7 @@ def run_evaluation(
                     tally[r["method"] + " ok"] += int(r["task_success"])
             if bar is not None:
                 bar.update(job.planned)
-                shown = [m for m in (REFERENCE, ORACLE) if tally[m]]
+                shown = [m for m in (REFERENCE, ACTION_SEARCH, ORACLE) if tally[m]]
                 bar.set_postfix_str(", ".join(f"{m} {tally[m + ' ok'] / tally[m]:.0%}" for m in shown),
                                     refresh=False)
 
