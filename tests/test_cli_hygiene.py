@@ -126,3 +126,22 @@ def test_data_info_without_a_manifest_reads_the_shards(tmp_path):
     body = json.loads(result.output[result.output.index("{"):])
     assert body["task"] == "sweeping" and body["shards"] == 3
     assert body["totals"] == expected
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--methods", "TOG-Net+ActionSerch"], "unknown method 'TOG-Net+ActionSerch'"),
+    (["--methods", "TOG-Net+ActionSearch",
+      "--task-model", "hammering_search=tognet/models/hammering.pt"], "its task stream does not see the action"),
+    (["--methods", "TOG-Net+ActionSearch", "--task-model",
+      "hammering_search=tognet/models/sweeping_search.pt"], "a sweeping model, given as the hammering_search model"),
+    (["--methods", "TOG-Net+ActionSearch", "--task-model", "hammering_search=nope.pt"], "checkpoint not found"),
+])
+def test_evaluate_refuses_a_bad_method_or_action_search_model_in_one_line(tmp_path, args, message):
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    args = [a.replace("tognet/models/", f"{root}/tognet/models/") for a in args]
+    out = tmp_path / "eval"
+    result = _run("evaluate", "--task", "hammering", "--episodes", "1", "--out", out, *args)
+    assert result.exit_code == 2 and message in result.output, result.output
+    assert "Traceback" not in result.output and not out.exists()  # refused before anything is written
