@@ -134,7 +134,7 @@ _AS = ["--methods", "TOG-Net+ActionSearch", "--task-model"]
 @pytest.mark.parametrize("args, message", [
     (["--methods", "TOG-Net+ActionSerch"], "unknown method 'TOG-Net+ActionSerch'"),
     ([*_AS, "hammering_search=tognet/models/hammering.pt"], "its task stream does not see the action"),
-    ([*_AS, "hammering_search=tognet/models/sweeping_search.pt"], "a sweeping model, given as the hammering_search"),
+    ([*_AS, "hammering_search=tognet/models/sweeping_search.pt"], "a sweeping model, given as"),
     ([*_AS, "hammering_search=nope.pt"], "checkpoint not found"),
 ])
 def test_evaluate_refuses_a_bad_method_or_action_search_model_in_one_line(tmp_path, args, message):
