@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 from typer.testing import CliRunner
 
+import tognet.collect
 from tognet.cli import app
-from tognet.collect.config import CollectConfig, PipelineConfig, RoundConfig, load_preset
+from tognet.collect.config import PRESETS, CollectConfig, PipelineConfig, RoundConfig, load_preset
 from tognet.collect.pipeline import PipelineError, run_pipeline
 from tognet.model.config import TrainConfig
 
@@ -81,6 +83,14 @@ def test_presets_load_and_cli_errors_are_one_line(tmp_path):
     assert all(search.train_for(t).arch.task_head == "action" for t in ("sweeping", "hammering", "pulling"))
     assert search.train_for("grasping").arch.task_head == "policy"
     assert [r.episodes for r in search.rounds_for("hammering")] == [24000, 16000, 16000]
+    medium = load_preset("medium")  # between quick-search and paper: more objects, more rounds
+    assert medium.objects == {"primitive": 300, "complex": 300}
+    for t in ("sweeping", "hammering", "pulling"):
+        rounds = medium.rounds_for(t)
+        assert len(rounds) == 6 and rounds[0].policy == "nms_uniform"
+        assert all(r.policy == "epsilon_greedy" for r in rounds[1:])
+        assert medium.train_for(t).arch.task_head == "action"
+    assert set(PRESETS) == {p.stem for p in (Path(tognet.collect.__file__).parent / "presets").glob("*.json")}
     paper = load_preset("paper")
     assert paper.objects == {"primitive": 9000, "complex": 9000} and paper.rounds[0].episodes == 500_000
     runner = CliRunner()

@@ -1,7 +1,7 @@
 """Configs of self-supervised collection and of the whole pipeline (presets are files of these).
 
-A preset (``tognet/collect/presets/{ci,quick,paper}.json``) is a :class:`PipelineConfig`: how many
-objects, how many trials in each round, how the policies explore and how long each round trains. Every
+A preset (a file in ``tognet/collect/presets/``, named in :data:`PRESETS`) is a :class:`PipelineConfig`: how
+many objects, how many trials in each round, how the policies explore and how long each round trains. Every
 collection saves its :class:`CollectConfig` (and the simulator, task, crop and policy configs inside it)
 beside its data.
 """
@@ -124,11 +124,14 @@ class PipelineConfig(Config):
         return self.task_train.get(task, self.train)
 
 
-PRESETS = ("ci", "quick", "quick-search", "paper")
+#: The shipped presets, smallest first: ``ci`` (the tests' toy loop), ``quick`` (the paper's method, ~1 h on
+#: 2 cores for two tasks), ``quick-search`` (the learned action search's recipe), ``medium`` (that recipe
+#: with twice the objects and six rounds: one task fits in 3 hours on 2 cores) and ``paper``.
+PRESETS = ("ci", "quick", "quick-search", "medium", "paper")
 
 
 def load_preset(name_or_path: str | Path) -> PipelineConfig:
-    """A preset by name (ci, quick, paper: files shipped in tognet/collect/presets) or a JSON file path."""
+    """A preset by name (one of :data:`PRESETS`, shipped in tognet/collect/presets) or a JSON file's path."""
     text = str(name_or_path)
     if text in PRESETS:
         ref = resources.files("tognet.collect").joinpath("presets", f"{text}.json")
