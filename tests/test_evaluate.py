@@ -236,7 +236,7 @@ def _same_counts(a, b):
 def test_the_command_names_bad_input_in_one_line(tmp_path, models, args, message):
     (tmp_path / "a-file").write_text("x")
     base = ["evaluate", "--out", str(tmp_path / "out"), "--episodes", "1",
-            "--grasp-model", str(models["grasping"]), "--sweeping-model", str(models["sweeping"]),
+            "--grasp-model", str(models["grasping"]), "--task-model", f"sweeping={models['sweeping']}",
             "--task-model", f"sweeping_search={models['sweeping_search']}"]
     result = CliRunner().invoke(app, base + [a.replace("{tmp}", str(tmp_path)) for a in args])
     assert result.exit_code == 2, result.output

@@ -4,6 +4,7 @@
   its rounds out of them, not the other way round (module-level, lazy imports inside functions, relative
   imports and module names given as strings to a lazy loader alike).
 * No module imports a private name (one starting with ``_``) of another tognet package.
+* No code outside ``tognet/tasks`` branches on a task's name (read from the source the same way).
 """
 
 from __future__ import annotations
@@ -161,3 +162,46 @@ def test_private_names_are_found_across_packages_only():
     assert not private_imports("from tognet.data.episodes import summarise", "tognet.collect.store")
     assert not private_imports("from tognet.data import __doc__", "tognet.collect.store")
     assert not private_imports("from typing import _T", "tognet.collect.store")
+
+
+def _task_name_branches(tree: ast.AST, names: set[str]) -> list[tuple[int, str]]:
+    """Where code compares a value with a task's name, indexes by one, or keys a dict literal with one."""
+    def named(node: ast.AST | None) -> bool:
+        if isinstance(node, ast.Constant):
+            return node.value in names
+        if isinstance(node, ast.Tuple | ast.List | ast.Set):
+            return any(named(e) for e in node.elts)
+        return False
+
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Compare) and (named(node.left) or any(named(c) for c in node.comparators)):
+            found.append((node.lineno, "compares with a task name"))
+        elif isinstance(node, ast.Subscript) and named(node.slice):
+            found.append((node.lineno, "indexes by a task name"))
+        elif isinstance(node, ast.Dict) and any(named(k) for k in node.keys):
+            found.append((node.lineno, "keys a dict with a task name"))
+        elif isinstance(node, ast.Match) and any(named(getattr(c.pattern, "value", None))
+                                                 for c in node.cases):
+            found.append((node.lineno, "matches a task name"))
+    return sorted(found)
+
+
+def test_no_code_outside_tasks_branches_on_a_task_name():
+    """What a task is evaluated by, its subsets, its default and its props live in tognet/tasks; the rest
+    asks the registry (the grasp-only pseudo-task is the constant GRASP_ONLY)."""
+    from tognet.tasks import GRASP_ONLY, TASK_NAMES
+
+    names = {*TASK_NAMES, GRASP_ONLY}
+    bad = []
+    for path in sorted(ROOT.rglob("*.py")):
+        if path.relative_to(ROOT).parts[0] == "tasks":
+            continue
+        for line, what in _task_name_branches(ast.parse(path.read_text()), names):
+            bad.append(f"{path.relative_to(ROOT.parent)}:{line} {what}")
+    assert not bad, "\n".join(bad)
+    # The check can fail: a branch on a name, written as the evaluation used to, is caught.
+    caught = _task_name_branches(ast.parse('x = 1 if task == "sweeping" else 2\ny = r["tasks"]["hammering"]\n'
+                                           'z = {"pulling": 1}'), names)
+    assert [w for _, w in caught] == ["compares with a task name", "indexes by a task name",
+                                      "keys a dict with a task name"]

@@ -32,11 +32,11 @@ TASKS_HELP = (
 
 def task_list(spec: str) -> list[str]:
     """The tasks ``--task`` names (see :data:`TASKS_HELP`); an unknown name raises ValueError."""
-    from tognet.tasks import TASK_NAMES
+    from tognet.tasks import PAPER_TASKS, TASK_NAMES
 
     if spec == "all":
         return list(TASK_NAMES)
-    names = ["sweeping", "hammering"] if spec == "both" else [n.strip() for n in spec.split(",") if n.strip()]
+    names = list(PAPER_TASKS) if spec == "both" else [n.strip() for n in spec.split(",") if n.strip()]
     for name in names:
         if name not in TASK_NAMES:
             raise ValueError(f"unknown task '{name}'; known tasks: {', '.join(TASK_NAMES)} (or all, both)")

@@ -32,10 +32,10 @@ from tognet.geometry import Grasp
 from tognet.objects.handmade import make_test_tools
 from tognet.objects.record import ObjectRecord, load_catalog
 from tognet.sim import Observation, SimConfig, Simulator
-from tognet.tasks import TASK_NAMES, get_task
+from tognet.tasks import DEFAULT_TASK, GRASP_ONLY, SIM_TASKS, get_task
 
 #: Gymnasium id of each registered task's env (``tognet/<Task>-v0``) and of grasping only.
-ENV_IDS = {name: f"tognet/{name.capitalize()}-v0" for name in (*TASK_NAMES, "grasping")}
+ENV_IDS = {name: f"tognet/{name.capitalize()}-v0" for name in SIM_TASKS}
 
 
 class TognetEnv(gym.Env):
@@ -45,7 +45,7 @@ class TognetEnv(gym.Env):
 
     def __init__(
         self,
-        task: str = "hammering",
+        task: str = DEFAULT_TASK,
         objects: str | Path | None = None,
         config: SimConfig | None = None,
         max_cached: int = 8,
@@ -81,7 +81,7 @@ class TognetEnv(gym.Env):
         )
         grasp_low = np.array([-lx, -ly, 0.0, 0.0])
         grasp_high = np.array([lx, ly, 0.3, 2 * np.pi])
-        if task == "grasping":
+        if task == GRASP_ONLY:
             low, high = grasp_low, grasp_high
         else:
             t = get_task(task, self.config.task_config(task))
@@ -152,10 +152,10 @@ class TognetEnv(gym.Env):
             raise RuntimeError("call reset() before step()")
         a = self.physical_action(action)
         grasp = Grasp.from_array(a[:4])
-        motion = a[4:] if self.task_name != "grasping" else None
+        motion = a[4:] if self.task_name != GRASP_ONLY else None
         trial_seed = int(self.np_random.integers(2**31 - 1))
         result = self._sim.execute(grasp, motion, trial_seed)
-        success = result.grasp_success if self.task_name == "grasping" else result.task_success
+        success = result.grasp_success if self.task_name == GRASP_ONLY else result.task_success
         info = {
             "grasp_success": result.grasp_success,
             "task_success": result.task_success,

@@ -39,14 +39,13 @@ def collect_cmd(
     """Collect one round of self-supervised trials into a dataset folder (killed, it resumes when run
     again with the same arguments)."""
     from tognet.collect.config import CollectConfig, RoundConfig
-    from tognet.collect.jobs import GRASP_ONLY
     from tognet.collect.rounds import collect_round
     from tognet.jobs.workers import make_executor
     from tognet.objects.record import load_catalog
-    from tognet.tasks import TASK_NAMES
+    from tognet.tasks import SIM_TASKS
 
-    if task not in (*TASK_NAMES, GRASP_ONLY):
-        raise ValueError(f"unknown task '{task}'; known: {', '.join((*TASK_NAMES, GRASP_ONLY))}")
+    if task not in SIM_TASKS:
+        raise ValueError(f"unknown task '{task}'; known: {', '.join(SIM_TASKS)}")
     if policy not in ("nms_uniform", "epsilon_greedy"):
         raise ValueError(f"unknown policy '{policy}'; use nms_uniform or epsilon_greedy")
     if policy == "epsilon_greedy" and task_model is None:

@@ -37,9 +37,9 @@ from tognet.policies.action_search import ActionSearchActions, ActionSearchGrasp
 from tognet.policies.grasp import CEMGrasp, NMSGrasps
 from tognet.policies.mix import EpsilonGreedyActions, EpsilonGreedyGrasps, ExpertMixActions
 from tognet.policies.view import ActionPolicy, GraspPolicy, SceneView, check_predictor_crops
+from tognet.tasks import GRASP_ONLY
 
 #: The grasp-only task (no primitive): trains the task-agnostic Q_G model.
-GRASP_ONLY = "grasping"
 
 
 @dataclass(frozen=True)

@@ -24,11 +24,11 @@ from pathlib import Path
 from typing import Any
 
 from tognet.collect.config import PipelineConfig, RoundConfig
-from tognet.collect.jobs import GRASP_ONLY
 from tognet.collect.rounds import SUMMARY, collect_round
 from tognet.errors import TognetError
 from tognet.jobs.workers import Executor, make_executor
 from tognet.objects.record import ObjectRecord
+from tognet.tasks import GRASP_ONLY
 
 DONE = "done.json"
 
@@ -125,7 +125,7 @@ def run_pipeline(
     out = Path(out)
     _check_out(out, preset, resume)
     executor: Executor = make_executor(workers, ray, ray_address)
-    summary: dict[str, Any] = {"preset": preset.name, "tasks": {}, "grasping": None}
+    summary: dict[str, Any] = {"preset": preset.name, "tasks": {}, GRASP_ONLY: None}
     try:
         objects = make_objects(preset, out, executor.workers, log, progress)
         # The grasp-only round and the task-agnostic model.
@@ -134,7 +134,7 @@ def run_pipeline(
                            None, None, executor, log, progress)
         g_model = train_round([g_dir / "round0" / "data"], GRASP_ONLY, g_dir / "model", preset,
                               preset.grasp_round.epochs, None, log, progress)
-        summary["grasping"] = {"round": g_round, "model": g_model}
+        summary[GRASP_ONLY] = {"round": g_round, "model": g_model}
         grasp_model = Path(g_model["best"])
         for task in tasks:
             rows = []
@@ -200,7 +200,7 @@ def format_pipeline_table(task: str, rows: list[dict[str, Any]]) -> str:
 def _write_summary(out: Path, summary: dict[str, Any]) -> None:
     (out / "summary.json").write_text(json.dumps(summary, indent=2, default=str) + "\n")
     parts = [f"# tognet pipeline, preset {summary['preset']}", ""]
-    g = summary.get("grasping")
+    g = summary.get(GRASP_ONLY)
     if g:
         r, m = g["round"], g["model"]
         parts += ["### grasp-only round (task-agnostic Q_G model)", "",
@@ -235,7 +235,7 @@ def export_models(run: str | Path, out: str | Path, command: str | None = None) 
         return rows
 
     entries: dict[str, tuple[Path, dict[str, Any]]] = {}
-    g = summary.get("grasping")
+    g = summary.get(GRASP_ONLY)
     if g:
         mdir = run / GRASP_ONLY / "model"
         row0 = {"round": 0, "collection": g["round"], "model": g["model"], "history": history(mdir)}

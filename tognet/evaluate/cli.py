@@ -33,14 +33,10 @@ def evaluate_cmd(
     out: Path = typer.Option(..., "--out", help="Folder for the results, report and test objects."),
     grasp_model: Path | None = typer.Option(None, "--grasp-model", help="Grasp-only (Q_G) checkpoint "
                                             "(default: the shipped tognet/models/grasping.pt)."),
-    sweeping_model: Path | None = typer.Option(None, "--sweeping-model", help="Sweeping TOG-Net checkpoint "
-                                               "(default: the shipped one)."),
-    hammering_model: Path | None = typer.Option(None, "--hammering-model", help="Hammering TOG-Net "
-                                                "checkpoint (default: the shipped one)."),
     task_model: list[str] = typer.Option([], "--task-model", metavar="NAME=PATH", help="A task's TOG-Net "
-                                         "checkpoint, for any registered task, or NAME=<task>_search: its "
-                                         "action-conditioned model for TOG-Net+ActionSearch (repeat for "
-                                         "several)."),
+                                         "checkpoint (NAME: the task), or its action-conditioned model for "
+                                         "TOG-Net+ActionSearch (NAME: <task>_search); repeat for several "
+                                         "(default: the shipped ones, tognet/models/NAME.pt)."),
     test_objects: int | None = typer.Option(None, "--test-objects", min=1, help="Test objects per category "
                                             "at most (default: a new one per job)."),
     scenes_per_job: int | None = typer.Option(None, "--scenes-per-job", min=1, help="Scenes per job (one "
@@ -63,7 +59,7 @@ def evaluate_cmd(
     from tognet.evaluate.harness import run_evaluation
 
     tasks = task_list(task)
-    models = {"sweeping": sweeping_model, "hammering": hammering_model, **task_models(task_model)}
+    models = task_models(task_model)
     cfg = EvalConfig.load(config) if config else EvalConfig()
     if scenes_per_job is not None:
         cfg = cfg.replace(scenes_per_job=scenes_per_job)

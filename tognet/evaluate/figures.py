@@ -14,6 +14,7 @@ import numpy as np
 
 from tognet.evaluate.config import EvalConfig
 from tognet.evaluate.kinds import GAP_ROWS, ORACLE, ORACLE_GRASP, ORACLE_MOTION, compared, kinds_of
+from tognet.evaluate.subsets import breakdown_title, headline, main_subset
 from tognet.jobs.output import JobOutput
 from tognet.objects.record import ObjectRecord
 
@@ -76,8 +77,6 @@ def _bars(ax: Any, groups: Sequence[str], methods: Sequence[str], cell: Any, tit
 
 def results_chart(results: dict[str, Any], path: Path) -> Path:
     """The paper's simulation figure: per task, success rate by category and method, 95 % intervals."""
-    from tognet.evaluate.harness import main_subset
-
     plt = _plt()
     tasks = list(results["tasks"])
     cats = [c for c in results["categories"] if c != "all"]
@@ -91,7 +90,7 @@ def results_chart(results: dict[str, Any], path: Path) -> Path:
             s = results["tasks"][task]["categories"][cat][sub]["methods"][m]
             return s["rate"], s["ci"], s["valid"]
 
-        _bars(ax, cats, methods, cell, f"{task}" + (" (one or two cans)" if task == "sweeping" else ""))
+        _bars(ax, cats, methods, cell, headline(task))
     handles, labels = axes[0][0].get_legend_handles_labels()
     # One row of labels when the figure is wide enough for them (about 1.4 in each), else two rows.
     rows = 1 if per_task * len(tasks) >= 1.4 * len(methods) else 2
@@ -103,14 +102,12 @@ def results_chart(results: dict[str, Any], path: Path) -> Path:
     return path
 
 
-def cans_chart(results: dict[str, Any], path: Path) -> Path | None:
-    """Sweeping by number of cans (one, two, the mix), all categories together: where the grasp pays."""
-    if "sweeping" not in results["tasks"]:
-        return None
+def subsets_chart(results: dict[str, Any], task: str, path: Path) -> Path:
+    """A task by its subsets of scenes (sweeping: one can, two cans, the mix), all categories together."""
     plt = _plt()
     cats = results["categories"]
     cat = "all" if "all" in cats else cats[0]
-    tres = results["tasks"]["sweeping"]["categories"][cat]
+    tres = results["tasks"][task]["categories"][cat]
     subsets = list(tres)
 
     def cell(sub: str, m: str) -> Any:
@@ -119,7 +116,7 @@ def cans_chart(results: dict[str, Any], path: Path) -> Path | None:
 
     fig, ax = plt.subplots(figsize=(8.5, 4.0))
     _bars(ax, subsets, compared(results["methods"], results.get("kinds")), cell,
-          f"sweeping by number of cans ({cat})")
+          f"{breakdown_title(task)} ({cat})")
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
@@ -131,8 +128,6 @@ def gap_chart(results: dict[str, Any], path: Path) -> Path | None:
     """Where the gap to the Oracle is: per task, by category, TOG-Net, TOG-Net's grasp with the Oracle's
     motion, the Oracle's grasp with TOG-Net's motion and the Oracle (95 % intervals, rates written on the
     bars). None when no task has the rows the decomposition needs (TOG-Net, the Oracle, a diagnostic)."""
-    from tognet.evaluate.harness import main_subset
-
     tasks = [t for t in results["tasks"] if any(subs[main_subset(t)].get("gap")
                                                 for subs in results["tasks"][t]["categories"].values())]
     if not tasks:
@@ -151,8 +146,7 @@ def gap_chart(results: dict[str, Any], path: Path) -> Path | None:
             s = results["tasks"][task]["categories"][cat][sub]["methods"][m]
             return s["rate"], s["ci"], s["valid"]
 
-        title = task + (" (one or two cans)" if task == "sweeping" else "")
-        _bars(ax, cats, methods, cell, title, values=True)
+        _bars(ax, cats, methods, cell, headline(task), values=True)
     handles, labels = axes[0][0].get_legend_handles_labels()
     labels = [f"{m} †" if kinds[m] == "diagnostic" else m for m in labels]
     rows = 1 if width >= 2.4 * len(methods) else -(-len(methods) // 2)  # a label needs about 2.4 in
@@ -176,10 +170,10 @@ def qualitative_figure(objects: Sequence[ObjectRecord], models: dict[str, Any], 
     from tognet.policies.grasp import CEMGrasp
     from tognet.policies.view import SceneView
     from tognet.sim import SimulationError, Simulator
-    from tognet.tasks import TASK_NAMES
+    from tognet.tasks import GRASP_ONLY, TASK_NAMES
 
-    columns = [(n, label, "grasp" if n == "grasping" else "task") for n, label in
-               (("grasping", "task-agnostic (Q_G)"), *((t, f"{t} (Q_T)") for t in TASK_NAMES)) if n in models]
+    columns = [(n, label, "grasp" if n == GRASP_ONLY else "task") for n, label in
+               ((GRASP_ONLY, "task-agnostic (Q_G)"), *((t, f"{t} (Q_T)") for t in TASK_NAMES)) if n in models]
     if not columns or not objects:
         return None
     crop = next((m.crop_config for m in models.values() if getattr(m, "crop_config", None) is not None), None)
@@ -190,7 +184,7 @@ def qualitative_figure(objects: Sequence[ObjectRecord], models: dict[str, Any], 
     rows = []
     for obj in objects:
         try:
-            sim = Simulator(config.sim, "grasping", obj)
+            sim = Simulator(config.sim, GRASP_ONLY, obj)
             obs = sim.reset(seed)
         except SimulationError:
             continue
@@ -215,7 +209,7 @@ def qualitative_figure(objects: Sequence[ObjectRecord], models: dict[str, Any], 
     for ax in axes.flat:
         ax.axis("off")
     palette = ("#3182bd", "#d94801", "#31a354", "#756bb1", "#e7298a", "#66a61e")  # grasping, then tasks
-    colours = {n: palette[i % len(palette)] for i, n in enumerate(("grasping", *TASK_NAMES))}
+    colours = {n: palette[i % len(palette)] for i, n in enumerate((GRASP_ONLY, *TASK_NAMES))}
     for k, (obj, obs, cands, grasps) in enumerate(rows):
         r, first = divmod(k, per_row)
         rgb = depth_to_rgb(obs.depth)

@@ -46,16 +46,16 @@ from tognet.evaluate.kinds import (
 )
 from tognet.evaluate.stats import paired_difference, wilson
 from tognet.evaluate.store import EvalStore
+from tognet.evaluate.subsets import main_subset, subsets_of
 from tognet.io import file_digest
 from tognet.jobs.output import JobOutput
 from tognet.jobs.workers import Executor, default_workers, make_executor
 from tognet.objects.record import ObjectRecord
 from tognet.planning.methods import METHODS, NEEDS, check_methods
+from tognet.tasks import GRASP_ONLY
 
 SETTINGS = "evaluation.json"
 RESULTS = "results.json"
-#: Sweeping's scenes by number of cans (the paper's mix is both); hammering has one subset.
-SUBSETS = {"sweeping": {"mix": None, "one-can": 1, "two-can": 2}, "hammering": {"all": None}}
 
 
 class EvalError(TognetError):
@@ -80,14 +80,14 @@ def resolve_models(tasks: Sequence[str], methods: Sequence[str], grasp_model: st
 
     task_models = task_models or {}
     needs = {n for m in methods for n in NEEDS[m]}
-    wanted: dict[str, str | Path | None] = {"grasping": grasp_model, **{t: task_models.get(t) for t in tasks}}
+    wanted: dict[str, str | Path | None] = {GRASP_ONLY: grasp_model, **{t: task_models.get(t) for t in tasks}}
     wanted.update({search_name(t): task_models.get(search_name(t)) for t in tasks})
     for other, path in task_models.items():
         wanted.setdefault(other, path)
     searched = {search_name(t) for t in tasks}
     out: dict[str, Path] = {}
     for name, path in wanted.items():
-        if name == "grasping":
+        if name == GRASP_ONLY:
             required = "grasp" in needs
         elif name in searched:
             required = "search" in needs
@@ -243,7 +243,7 @@ def run_evaluation(
         jobs: list[EvalJob] = []
         for task in tasks:
             for cat, recs in objects.items():
-                grasp = str(models["grasping"]) if "grasping" in models else None
+                grasp = str(models[GRASP_ONLY]) if GRASP_ONLY in models else None
                 tmodel = str(models[task]) if task in models else None
                 smodel = str(models[search_name(task)]) if search_name(task) in models else None
                 planned = plan_eval_jobs(task, cat, recs, episodes, methods, config, grasp, tmodel, smodel)
@@ -251,7 +251,7 @@ def run_evaluation(
                         "config_hash": config.fingerprint(), "jobs": len(planned),
                         "objects": sorted({j.obj.object_id for j in planned}),
                         "models": {k: settings["models"][k]["sha256"]
-                                   for k in ("grasping", task, search_name(task)) if k in settings["models"]}}
+                                   for k in (GRASP_ONLY, task, search_name(task)) if k in settings["models"]}}
                 store = stores[(task, cat)] = EvalStore(out / task / cat, meta)
                 jobs += [j for j in planned if j.index not in store.done]
         total = len(tasks) * len(objects) * episodes * len(methods)
@@ -442,13 +442,14 @@ def gap_decomposition(per_method: dict[str, list[dict[str, Any]]], stats: dict[s
 def summarise(records: Sequence[dict[str, Any]], tasks: Sequence[str], methods: Sequence[str],
               categories: Sequence[str]) -> dict[str, Any]:
     """results.json's numbers from the records: ``kinds`` (each method's kind: baseline, ours, oracle or
-    diagnostic) and per task, category (and ``all`` when there are several), subset (sweeping: mix,
-    one-can, two-can) and method: :func:`rate_stats`; ``tognet_minus_method``: the paired difference of
-    TOG-Net's rate and each other method's (diagnostics included) over the scenes where both trials are
-    valid, with its 95 % interval (Newcombe); ``action_search_minus_method``: the same for the learned
-    action search against every other method that is not a diagnostic (empty when it was not evaluated);
-    ``oracle_fraction``: the method's rate over the Oracle's; ``gap``: :func:`gap_decomposition` (absent
-    without the rows it needs); ``model_rating``: :func:`model_rating`."""
+    diagnostic) and per task, category (and ``all`` when there are several), subset (the task's
+    :attr:`~tognet.tasks.Task.subsets`; sweeping: mix, one-can, two-can) and method: :func:`rate_stats`;
+    ``tognet_minus_method``: the paired difference of TOG-Net's rate and each other method's (diagnostics
+    included) over the scenes where both trials are valid, with its 95 % interval (Newcombe);
+    ``action_search_minus_method``: the same for the learned action search against every other method that
+    is not a diagnostic (empty when it was not evaluated); ``oracle_fraction``: the method's rate over the
+    Oracle's; ``gap``: :func:`gap_decomposition` (absent without the rows it needs); ``model_rating``:
+    :func:`model_rating`."""
     groups: dict[tuple[str, str, str], list[dict[str, Any]]] = defaultdict(list)
     for r in records:
         groups[(r["task"], r["category"], r["method"])].append(r)
@@ -461,9 +462,10 @@ def summarise(records: Sequence[dict[str, Any]], tasks: Sequence[str], methods: 
         for cat in cats:
             members = list(categories) if cat == "all" else [cat]
             subsets: dict[str, Any] = {}
-            for sub, n_cans in SUBSETS.get(task, {"all": None}).items():
-                per_method = {m: [r for c in members for r in groups[(task, c, m)]
-                                  if n_cans is None or r.get("n_cans") == n_cans] for m in methods}
+            for subset in subsets_of(task):
+                sub = subset.name
+                per_method = {m: [r for c in members for r in groups[(task, c, m)] if subset.holds(r)]
+                              for m in methods}
                 stats = {m: rate_stats(v) for m, v in per_method.items()}
                 diffs = {m: paired(per_method[REFERENCE], per_method[m]) for m in methods
                          if REFERENCE in methods and m != REFERENCE}
@@ -498,11 +500,6 @@ def _timing(records: Sequence[dict[str, Any]]) -> dict[str, float]:
 
 def _pct(x: float | None) -> str:
     return "n/a" if x is None else f"{100 * x:.1f}"
-
-
-def main_subset(task: str) -> str:
-    """The subset reported as the task's headline (sweeping: the paper's mix of one and two cans)."""
-    return next(iter(SUBSETS.get(task, {"all": None})))
 
 
 def format_results(results: dict[str, Any]) -> str:

@@ -122,11 +122,11 @@ def _run_eval_job(job: EvalJob) -> JobOutput:
         if obs is None:
             continue
         depth_sha = hashlib.sha256(np.ascontiguousarray(obs.depth).tobytes()).hexdigest()[:16]
-        cans = obs.info.get("layout", {}).get("cans")
+        facts = sim.task.scene_facts(obs.info.get("layout", {})) if sim.task is not None else {}
         for method, planner in planners.items():
             base = {"task": job.task, "category": job.category, "object_id": job.obj.object_id,
                     "job": job.index, "scene": s, "scene_seed": scene_seed, "method": method,
-                    "n_cans": len(cans) if cans is not None else None, "depth_sha": depth_sha}
+                    **facts, "depth_sha": depth_sha}
             rng = np.random.default_rng(job.seed(s, 2))  # the same state for every method
             try:
                 plan = planner(obs, rng)

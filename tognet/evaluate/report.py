@@ -13,7 +13,6 @@ from pathlib import Path
 from typing import Any
 
 from tognet.evaluate.config import EvalConfig
-from tognet.evaluate.harness import main_subset
 from tognet.evaluate.kinds import (
     ACTION_SEARCH,
     GAP_ROWS,
@@ -26,6 +25,7 @@ from tognet.evaluate.kinds import (
     kinds_of,
     may_be_best,
 )
+from tognet.evaluate.subsets import breakdown_note, breakdown_title, broken_down, headline, main_subset
 from tognet.objects.record import ObjectRecord
 
 METHOD_NOTES = {
@@ -206,19 +206,17 @@ def failure_table(results: dict[str, Any], task: str, sub: str) -> Table:
     return table
 
 
-def cans_tables(results: dict[str, Any]) -> list[Table]:
-    """Sweeping by number of cans, one table per category: where the grasp matters."""
-    if "sweeping" not in results["tasks"]:
-        return []
+def subsets_tables(results: dict[str, Any], task: str) -> list[Table]:
+    """A task by its subsets of scenes (sweeping: by number of cans), one table per category."""
     tables = []
-    for cat, subsets in results["tasks"]["sweeping"]["categories"].items():
-        table = Table(f"sweeping, {cat}: task success % [95 % interval] (valid trials)", ["method", *subsets])
+    for cat, subsets in results["tasks"][task]["categories"].items():
+        table = Table(f"{task}, {cat}: task success % [95 % interval] (valid trials)", ["method", *subsets])
         for m in results["methods"]:
             table.rows.append([_name(results, m),
                                *(_rate_cell(subsets[sub]["methods"][m]) for sub in subsets)])
         tables.append(table)
-    tables[-1].note = ("With one can almost any grasp that lifts the tool can succeed; with two the tool "
-                       "must span both, and the grasp decides whether it can.")
+    if tables:
+        tables[-1].note = breakdown_note(task)
     return tables
 
 
@@ -277,8 +275,7 @@ def gap_tables(results: dict[str, Any], task: str) -> list[Table]:
     if not cats:
         return []
     rows = [m for m in GAP_ROWS if m in results["methods"]]
-    what = " (the paper's mix: one or two cans)" if task == "sweeping" else ""
-    rates = Table(f"{task}{what}: task success % [95 % interval] (valid trials)",
+    rates = Table(f"{headline(task)}: task success % [95 % interval] (valid trials)",
                   ["category", *(_label(results, m) for m in rows)])
     for c in cats:
         rates.rows.append([c, *(_rate_cell(tres[c][sub]["methods"][m]) for m in rows)])
@@ -416,7 +413,8 @@ def write_report(out: Path, results: dict[str, Any], records: Sequence[dict[str,
     tasks = list(results["tasks"])
     pictures: dict[str, Path | None] = {
         "results": figures.results_chart(results, fig_dir / "results.png"),
-        "cans": figures.cans_chart(results, fig_dir / "sweeping_cans.png"),
+        **{f"subsets-{t}": figures.subsets_chart(results, t, fig_dir / f"{t}_subsets.png")
+           for t in broken_down(results)},
         "gap": figures.gap_chart(results, fig_dir / "gap.png"),
     }
     loaded = {}
@@ -481,9 +479,8 @@ def _tables(results: dict[str, Any]) -> list[tuple[str, list[Table]]]:
     sections = []
     for task in results["tasks"]:
         sub = main_subset(task)
-        what = " (the paper's mix: one or two cans)" if task == "sweeping" else ""
-        tables = [success_table(results, task, sub, f"{task}{what}: task success % [95 % interval] (valid "
-                                                    "trials)")]
+        tables = [success_table(results, task, sub, f"{headline(task)}: task success % [95 % interval] "
+                                                    "(valid trials)")]
         tables += [t for t in (paired_table(results, task, sub),
                                paired_table(results, task, sub, ACTION_SEARCH, "action_search_minus_method"),
                                oracle_table(results, task, sub)) if t]
@@ -541,10 +538,10 @@ def _html(results: dict[str, Any], pictures: dict[str, Path | None],
             parts.append(f"<h3>{html.escape(task)}</h3><ul class='lines'>")
             parts += [f"<li>{html.escape(line)}</li>" for line in gap_rating_lines(results, task)]
             parts += ["</ul><div class='row'>", *(t.html() for t in gap_tables(results, task)), "</div>"]
-    cans = cans_tables(results)
-    if cans:
-        parts += ["<h2>Sweeping by number of cans</h2>", img("cans", "sweeping by can count"),
-                  "<div class='row'>", *(t.html() for t in cans), "</div>"]
+    for task in broken_down(results):
+        title = breakdown_title(task)
+        parts += [f"<h2>{html.escape(title[0].upper() + title[1:])}</h2>", img(f"subsets-{task}", title),
+                  "<div class='row'>", *(t.html() for t in subsets_tables(results, task)), "</div>"]
     parts += ["<h2>Where each model grasps</h2>", img("qualitative", "grasps on depth images"),
               "<p class='note'>The same depth image (the object alone on the table) per row: the "
               "task-agnostic grasp (CEM on Q_G), and TOG-Net's grasp for each task evaluated ("
@@ -595,10 +592,10 @@ def _markdown(results: dict[str, Any], pictures: dict[str, Path | None],
         for task in gap_tasks:
             parts += [f"### {task}", "", *(f"- {line}" for line in gap_rating_lines(results, task)), ""]
             parts += [t.markdown() for t in gap_tables(results, task)]
-    cans = cans_tables(results)
-    if cans:
-        parts += ["## Sweeping by number of cans", "", img("cans", "sweeping by can count")]
-        parts += [t.markdown() for t in cans]
+    for task in broken_down(results):
+        title = breakdown_title(task)
+        parts += [f"## {title[0].upper() + title[1:]}", "", img(f"subsets-{task}", title)]
+        parts += [t.markdown() for t in subsets_tables(results, task)]
     parts += ["## Where each model grasps", "", img("qualitative", "grasps on depth images")]
     parts += ["## Episodes (GIFs at real speed)", ""] + ([gif_note, ""] if gif_note else [])
     for task, items in gifs.items():

@@ -23,10 +23,11 @@ from __future__ import annotations
 from pathlib import Path
 
 from tognet.errors import TognetError
+from tognet.tasks import GRASP_ONLY, TASK_NAMES
 
 MODELS_DIR = Path(__file__).resolve().parent
-NAMES = ("grasping", "sweeping", "hammering", "pulling", "sweeping_search", "hammering_search",
-         "pulling_search")
+#: The shipped models: the grasp-only model, each task's TOG-Net and its ``<task>_search`` model.
+NAMES = (GRASP_ONLY, *TASK_NAMES, *(f"{t}_search" for t in TASK_NAMES))
 
 
 def default_checkpoint(name: str) -> Path:

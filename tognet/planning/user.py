@@ -66,7 +66,7 @@ from tognet.policies.action import PolicyActions
 from tognet.policies.config import PolicyConfig
 from tognet.policies.grasp import CEMGrasp
 from tognet.policies.view import SceneView, check_predictor_crops
-from tognet.tasks import TASK_NAMES, Task, get_task
+from tognet.tasks import GRASP_ONLY, TASK_NAMES, Task, get_task
 
 #: The simulator's nominal camera height above the table (SimConfig().camera.position z), where every
 #: training image was taken from (+-3 cm).
@@ -306,7 +306,7 @@ def _load_predictor(task: str, checkpoint: Any, num_threads: int | None) -> tupl
         predictor, where = TOGNetPredictor.load(path, num_threads=num_threads), str(path)
     trained = getattr(predictor, "task", None)
     if trained is not None and trained != task:
-        kind = "the grasp-only model (Q_G, no task)" if trained == "grasping" else f"a {trained} model"
+        kind = "the grasp-only model (Q_G, no task)" if trained == GRASP_ONLY else f"a {trained} model"
         raise PlanInputError(f"checkpoint {where} is {kind}; planning for {task} needs a {task} model")
     return predictor, where
 

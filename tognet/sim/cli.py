@@ -10,9 +10,7 @@ from typing import Any
 import typer
 
 from tognet.cliutil import user_errors
-from tognet.tasks import DEFAULT_TASK, TASK_NAMES, get_props, get_task
-
-SIM_TASKS = (*TASK_NAMES, "grasping")  # as tognet.sim.simulator.SIM_TASKS (that module loads MuJoCo)
+from tognet.tasks import DEFAULT_TASK, GRASP_ONLY, SIM_TASKS, TASK_NAMES, get_props, get_task
 
 
 def _short(value: object) -> object:
@@ -119,8 +117,8 @@ def register(app: typer.Typer) -> None:
         for values, name in ((grasp, "--grasp"), (action, "--action")):
             if values is not None and not all(math.isfinite(v) for v in values):
                 raise ValueError(f"{name} takes 4 finite numbers, got {' '.join(map(str, values))}")
-        if task == "grasping" and action is not None:
-            raise ValueError("--action has no use with --task grasping (the episode ends after the lift)")
+        if task == GRASP_ONLY and action is not None:
+            raise ValueError(f"--action has no use with --task {GRASP_ONLY} (the episode ends at the lift)")
         for path, suffix, name in ((gif, ".gif", "--gif"), (depth_png, ".png", "--depth-png")):
             if path is not None and (path.suffix.lower() != suffix or path.is_dir()):
                 raise ValueError(f"{name} must name a {suffix} file, got '{path}'")
@@ -161,7 +159,7 @@ def register(app: typer.Typer) -> None:
                         f"(|x| <= {half[0]:.2f}, |y| <= {half[1]:.2f}); the object lies at "
                         f"{', '.join(f'{v:.3f}' for v in sim.object_pose()[0][:2])}"
                     )
-            if task == "grasping":
+            if task == GRASP_ONLY:
                 g = sim.default_grasp() if grasp is None else g
                 a = np.zeros(4)
                 if grasp is None:
@@ -178,7 +176,7 @@ def register(app: typer.Typer) -> None:
             else:
                 a = np.asarray(action, dtype=np.float64)
             typer.echo(f"grasp:  {g.x:.4f} {g.y:.4f} {g.z:.4f} {g.phi:.4f}  (x y z m, phi rad; world frame)")
-            if task != "grasping":
+            if task != GRASP_ONLY:
                 typer.echo(f"action: {a[0]:.4f} {a[1]:.4f} {a[2]:.4f} {a[3]:.4f}  (a_x a_y a_z m, a_phi rad; "
                            "relative to the task's reference point)")
             recorder = None

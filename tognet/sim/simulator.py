@@ -46,10 +46,8 @@ from tognet.sim.physics import (
 )
 from tognet.sim.trial import Trial, TrialResult
 from tognet.sim.world import GROUP_PROPS, PARK, touch_sensor_names, world_xml
-from tognet.tasks import TASK_NAMES, Task, get_props, get_task
+from tognet.tasks import SIM_TASKS, TASK_NAMES, Task, get_props, get_task
 from tognet.tasks.props import PropsMJCF, TaskProps
-
-SIM_TASKS = (*TASK_NAMES, "grasping")
 
 __all__ = ["SIM_TASKS", "Observation", "SimulationError", "Simulator", "TrialResult"]
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from tognet.tasks.base import FailureReason, Motion, Task, TaskOutcome
+from tognet.tasks.base import FailureReason, Motion, SceneSubset, Task, TaskOutcome
 from tognet.tasks.hammering import Hammering, HammeringConfig
 from tognet.tasks.hammering_props import HammeringProps
 from tognet.tasks.props import TaskProps
@@ -36,6 +36,13 @@ _REGISTRY: dict[str, TaskEntry] = {
 TASK_NAMES: tuple[str, ...] = tuple(_REGISTRY)
 #: The task a command runs when none is named.
 DEFAULT_TASK = "hammering"
+#: The paper's two tasks (what ``--task both`` means).
+PAPER_TASKS: tuple[str, ...] = ("sweeping", "hammering")
+#: The grasp-only pseudo-task: lift the tool, no props and no motion (the task-agnostic model's data, the
+#: Gymnasium env ``tognet/Grasping-v0``). It is no :class:`Task`; :data:`SIM_TASKS` is every name the
+#: simulator takes.
+GRASP_ONLY = "grasping"
+SIM_TASKS: tuple[str, ...] = (*TASK_NAMES, GRASP_ONLY)
 
 
 def _entry(name: str) -> TaskEntry:
@@ -54,6 +61,11 @@ def task_config_class(name: str) -> type:
     return _entry(name).task.config_class
 
 
+def headline_subset(name: str) -> str:
+    """The subset of scenes reported as the task's headline (the first of its :attr:`Task.subsets`)."""
+    return _entry(name).task.subsets[0].name
+
+
 def get_props(task: Task | None) -> TaskProps:
     """The simulator props of ``task`` (a :class:`Task` from :func:`get_task`); None: no props (grasping)."""
     if task is None:
@@ -64,13 +76,17 @@ def get_props(task: Task | None) -> TaskProps:
 __all__ = [
     "DEFAULT_TASK",
     "FailureReason",
+    "GRASP_ONLY",
     "Hammering",
     "HammeringConfig",
     "Motion",
+    "PAPER_TASKS",
     "Pulling",
     "PullingConfig",
     "Sweeping",
     "SweepingConfig",
+    "SIM_TASKS",
+    "SceneSubset",
     "TASK_NAMES",
     "Task",
     "TaskEntry",
@@ -78,5 +94,6 @@ __all__ = [
     "TaskProps",
     "get_props",
     "get_task",
+    "headline_subset",
     "task_config_class",
 ]

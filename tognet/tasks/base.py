@@ -54,6 +54,23 @@ class TaskOutcome:
     values: dict[str, Any] = field(default_factory=dict)  # task-specific measurements
 
 
+@dataclass(frozen=True)
+class SceneSubset:
+    """A named subset of a task's evaluation scenes, chosen by one fact of the scene
+    (:meth:`Task.scene_facts`).
+
+    ``fact`` None takes every scene. The evaluation reports every subset; a task's first is its headline."""
+
+    name: str  # the key in results.json (e.g. "two-can")
+    label: str  # how the report says it (e.g. "two cans")
+    fact: str | None = None  # the scene fact that chooses the scenes (a key of scene_facts)
+    value: Any = None  # the fact's value in the subset
+
+    def holds(self, facts: dict[str, Any]) -> bool:
+        """Whether a scene with these facts belongs to the subset."""
+        return self.fact is None or facts.get(self.fact) == self.value
+
+
 class Task:
     """Base class of a task; subclasses set ``name`` and ``config_class`` and implement the abstract
     methods."""
@@ -62,6 +79,12 @@ class Task:
     #: The task's config class (a section of ``SimConfig`` named after the task); its defaults when none
     #: is given.
     config_class: type = object
+    #: The subsets of scenes the evaluation reports; the first is the task's headline (every scene here).
+    subsets: tuple[SceneSubset, ...] = (SceneSubset("all", "all scenes"),)
+    #: What the subsets break the scenes down by, for the report's heading ("" with one subset).
+    subsets_by: str = ""
+    #: What the report says under the breakdown by subset (why it is shown).
+    subsets_note: str = ""
 
     def __init__(self, config: Any = None) -> None:
         self.config = config if config is not None else self.config_class()
@@ -108,6 +131,11 @@ class Task:
         a = self.check_action(action)
         offset = np.asarray(self.config.nominal_offset, dtype=np.float64)
         return np.asarray(reference, dtype=np.float64) + offset + a[:3], float(self.config.nominal_yaw + a[3])
+
+    def scene_facts(self, layout: dict[str, Any]) -> dict[str, Any]:
+        """Facts of one scene's layout that the evaluation records with each trial and chooses
+        :attr:`subsets` by (none here)."""
+        return {}
 
     # --- to implement -------------------------------------------------------------------------------
     def sample_layout(self, rng: np.random.Generator) -> dict[str, Any]:
