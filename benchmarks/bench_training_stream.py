@@ -35,8 +35,10 @@ from pathlib import Path
 
 import numpy as np
 
-from tognet.data.episodes import FIELDS, new_manifest, write_manifest, write_shard
+from tognet.data.format import FIELDS
+from tognet.data.manifest import new_manifest, write_manifest
 from tognet.data.synthetic import synthetic_episodes
+from tognet.data.writer import write_shard
 
 
 def _status(key: str) -> float:

@@ -22,7 +22,8 @@ import numpy as np
 
 from tognet.collect.config import CollectConfig, RoundConfig
 from tognet.collect.rounds import collect_round
-from tognet.data.episodes import FAILURE_CODES, FIELDS, read_dataset
+from tognet.data.episodes import read_dataset
+from tognet.data.format import FAILURE_CODES, FIELDS
 from tognet.geometry import Grasp
 from tognet.grasping import AntipodalConfig, prepare_depth, sample_antipodal
 from tognet.jobs.workers import LocalExecutor

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from tognet.collect.jobs import trial_records
-from tognet.data.episodes import ShardWriter
+from tognet.data.writer import ShardWriter
 from tognet.grasping.antipodal import AntipodalConfig, sample_antipodal
 from tognet.grasping.crops import CropConfig
 from tognet.grasping.depth import prepare_depth

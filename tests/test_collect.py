@@ -20,7 +20,8 @@ from tognet.collect.config import CollectConfig, RoundConfig
 from tognet.collect.jobs import plan_jobs, run_job
 from tognet.collect.rounds import collect_round
 from tognet.collect.store import RoundStore
-from tognet.data.episodes import FIELDS, DatasetError, read_dataset
+from tognet.data.episodes import read_dataset
+from tognet.data.format import FIELDS, DatasetError
 from tognet.geometry import Grasp
 from tognet.jobs.workers import LocalExecutor
 from tognet.objects import generate_set
@@ -253,7 +254,7 @@ def test_two_nms_rankings_on_one_scene_keep_their_own_modes():
 
 
 def test_expert_exploration_uses_the_oracles_actions_and_is_saved_with_the_data(objects, tmp_path):
-    from tognet.data.episodes import ACTION_SOURCES
+    from tognet.data.format import ACTION_SOURCES
     from tognet.sim.oracle import task_actions
 
     expert = RoundConfig(episodes=6, expert_actions=1.0)

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from tognet.data import DatasetError, EpisodeArrays, ShardWriter, read_dataset, read_shard
-from tognet.data.episodes import FIELDS, split_indices_by_object
+from tognet.data.episodes import split_indices_by_object
+from tognet.data.format import FIELDS
 from tognet.data.synthetic import synthetic_episodes, write_synthetic_dataset
 from tognet.data.torch_dataset import EpisodeDataset
 
@@ -158,7 +159,7 @@ def test_failure_reasons_by_name(tmp_path):
 
 
 def test_failure_codes_follow_the_enum_and_keep_their_stored_values():
-    from tognet.data.episodes import FAILURE_CODES
+    from tognet.data.format import FAILURE_CODES
     from tognet.tasks import FailureReason
 
     assert list(FAILURE_CODES) == [r.value for r in FailureReason]

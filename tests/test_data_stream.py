@@ -8,16 +8,12 @@ import numpy as np
 import pytest
 import torch
 
-from tognet.data.episodes import (
-    DatasetError,
-    new_manifest,
-    read_dataset,
-    split_indices_by_object,
-    write_manifest,
-    write_shard,
-)
+from tognet.data.episodes import read_dataset, split_indices_by_object
+from tognet.data.format import DatasetError
+from tognet.data.manifest import new_manifest, write_manifest
 from tognet.data.stream import EpisodeStream
 from tognet.data.synthetic import bar_crop, synthetic_episodes, write_synthetic_dataset
+from tognet.data.writer import write_shard
 
 
 @pytest.fixture(scope="module")
@@ -177,7 +173,7 @@ _MEASURE = textwrap.dedent("""
 def _write_many_shards(folder, n_shards, per_shard, small=None, small_shards=0):
     """Many shards, fast: a few distinct noiseless crops reused (they compress well), written directly.
     ``small``: a second dataset folder holding (hard links to) the first ``small_shards`` shards."""
-    from tognet.data.episodes import FIELDS
+    from tognet.data.format import FIELDS
 
     folder.mkdir(parents=True)
     ep = synthetic_episodes(per_shard, n_objects=16, seed=0)

@@ -7,7 +7,7 @@ from typer.testing import CliRunner
 
 from tognet.cli import app
 from tognet.grasping import AntipodalConfig, load_depth_file, prepare_depth
-from tognet.grasping.cli import render_grasps
+from tognet.grasping.draw import render_grasps
 from tognet.grasping.synthetic import Cylinder, render_depth, t_shape, tilted_camera
 
 

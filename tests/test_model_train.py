@@ -174,7 +174,7 @@ def test_early_stopping(dataset, tmp_path):
 
 
 def test_wrong_task_refused(dataset, tmp_path):
-    from tognet.data.episodes import DatasetError
+    from tognet.data.format import DatasetError
 
     with pytest.raises(DatasetError, match="expected 'hammering'"):
         train([dataset], "hammering", tmp_path / "o", _cfg(), progress=False, log=lambda s: None)
@@ -218,7 +218,7 @@ def test_package_exports_the_training_function_not_the_module():
 
 
 def test_truncated_shard_named_or_skipped(tmp_path):
-    from tognet.data.episodes import DatasetError
+    from tognet.data.format import DatasetError
 
     d = write_synthetic_dataset(tmp_path / "d", task="t", n=120, shard_size=40, seed=2, n_objects=6)
     shard = d / "shard-00001.npz"

@@ -97,7 +97,7 @@ def test_planner_arguments_are_checked(models, objects):
 def test_each_method_is_one_row_of_the_table_and_a_new_row_plans(models, objects):
     """METHODS and NEEDS come from the table; a row says what kind of method it is; a diagnostic row
     (here the TOG-Net grasp with the simulator's expert motion) needs the simulator and then plans."""
-    from tognet.data.episodes import ACTION_SOURCES
+    from tognet.data.format import ACTION_SOURCES
     from tognet.planning import METHOD_TABLE, NEEDS, Method, get_method
     from tognet.policies.action import ExpertActions
     from tognet.policies.grasp import CEMGrasp

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tognet.data.episodes import ACTION_SOURCES, GRASP_SOURCES
+from tognet.data.format import ACTION_SOURCES, GRASP_SOURCES
 from tognet.grasping import AntipodalConfig, CropConfig, prepare_depth, sample_antipodal
 from tognet.grasping.cem import CEMConfig
 from tognet.policies.action import ExpertActions, PolicyActions, UniformActions

@@ -1,18 +1,9 @@
 """tognet: task-oriented grasping for tool manipulation, learned from simulated self-supervision."""
 
+from tognet.lazy_names import lazy_names
+
 __version__ = "0.1.0"
 
-
-def __getattr__(name: str) -> object:
-    """``tognet.plan`` (:func:`tognet.planning.user.plan_image`), loaded on first use: ``import tognet`` and
-    ``tognet --help`` stay free of torch."""
-    if name == "plan":
-        from tognet.planning.user import plan_image
-
-        globals()["plan"] = plan_image
-        return plan_image
-    raise AttributeError(f"module 'tognet' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), "plan"})
+# ``tognet.plan`` (:func:`tognet.planning.user.plan_image`), loaded on first use: ``import tognet`` and
+# ``tognet --help`` stay free of torch.
+__getattr__, __dir__ = lazy_names(__name__, {"plan": "tognet.planning.user:plan_image"})

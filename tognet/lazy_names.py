@@ -1,4 +1,8 @@
-"""Package names loaded on first use (PEP 562), so `tognet --help` need not import torch or trimesh."""
+"""Package names loaded on first use (PEP 562), so `tognet --help` need not import torch or trimesh.
+
+The one lazy-import mechanism of tognet: a package lists ``name -> "module"`` (or ``"module:attribute"``
+when the name differs from the module's) and sets ``__getattr__, __dir__ = lazy_names(__name__, WHERE)``.
+"""
 
 from __future__ import annotations
 
@@ -10,13 +14,15 @@ from typing import Any
 
 def lazy_names(package: str, where: dict[str, str]) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
     """A module's ``__getattr__`` and ``__dir__`` for ``package``: each name in ``where`` comes from the
-    module named there, imported (and the name cached in the package) on first use."""
+    module named there (``"module:attribute"``: that attribute of it), imported (and the name cached in
+    the package) on first use."""
 
     def __getattr__(name: str) -> Any:
-        module = where.get(name)
-        if module is None:
+        spec = where.get(name)
+        if spec is None:
             raise AttributeError(f"module {package!r} has no attribute {name!r}")
-        value = getattr(importlib.import_module(module), name)
+        module, _, attribute = spec.partition(":")
+        value = getattr(importlib.import_module(module), attribute or name)
         setattr(sys.modules[package], name, value)
         return value
 

@@ -26,6 +26,7 @@ from typing import Any
 from tognet.collect.config import PipelineConfig, RoundConfig
 from tognet.collect.rounds import SUMMARY, collect_round
 from tognet.errors import TognetError
+from tognet.io import atomic_write_text
 from tognet.jobs.workers import Executor, make_executor
 from tognet.objects.record import ObjectRecord
 from tognet.tasks import GRASP_ONLY
@@ -198,7 +199,7 @@ def format_pipeline_table(task: str, rows: list[dict[str, Any]]) -> str:
 
 
 def _write_summary(out: Path, summary: dict[str, Any]) -> None:
-    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=str) + "\n")
+    atomic_write_text(out / "summary.json", json.dumps(summary, indent=2, default=str) + "\n")
     parts = [f"# tognet pipeline, preset {summary['preset']}", ""]
     g = summary.get(GRASP_ONLY)
     if g:
@@ -208,7 +209,7 @@ def _write_summary(out: Path, summary: dict[str, Any]) -> None:
                   f"{_fmt(_metric(m, 'grasp'))}", ""]
     for task, rows in summary["tasks"].items():
         parts += [format_pipeline_table(task, rows), ""]
-    (out / "summary.md").write_text("\n".join(parts))
+    atomic_write_text(out / "summary.md", "\n".join(parts))
 
 
 def export_models(run: str | Path, out: str | Path, command: str | None = None) -> list[Path]:

@@ -21,7 +21,8 @@ import numpy as np
 from tognet.collect.config import CollectConfig, RoundConfig
 from tognet.collect.jobs import Job, plan_jobs, run_job
 from tognet.collect.store import RoundStore
-from tognet.data.episodes import ACTION_SOURCES, FAILURE_CODES, GRASP_SOURCES, read_columns, shard_paths
+from tognet.data.episodes import read_columns, shard_paths
+from tognet.data.format import ACTION_SOURCES, FAILURE_CODES, GRASP_SOURCES
 from tognet.errors import TognetError
 from tognet.io import file_digest
 from tognet.jobs.output import JobOutput

@@ -22,18 +22,10 @@ from typing import Any
 
 import numpy as np
 
-from tognet.data.episodes import (
-    MANIFEST,
-    DatasetError,
-    check_columns,
-    new_manifest,
-    read_columns,
-    read_manifest,
-    save_config,
-    summarise,
-    write_manifest,
-    write_shard,
-)
+from tognet.data.episodes import read_columns
+from tognet.data.format import MANIFEST, DatasetError, check_columns, summarise
+from tognet.data.manifest import new_manifest, read_manifest, save_config, write_manifest
+from tognet.data.writer import write_shard
 from tognet.io import sha256_file
 
 SHARD_NAME = "shard-{:06d}.npz"
@@ -140,7 +132,7 @@ class RoundStore:
 
 
 def _empty_columns() -> dict[str, np.ndarray]:
-    from tognet.data.episodes import EpisodeArrays
+    from tognet.data.format import EpisodeArrays
 
     empty = EpisodeArrays.empty()
     return {name: getattr(empty, name) for name in empty.__dataclass_fields__}

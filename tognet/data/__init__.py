@@ -5,19 +5,22 @@
 """
 
 from tognet.data.episodes import (
-    FAILURE_CODES,
-    FIELDS,
-    FORMAT_VERSION,
-    DatasetError,
-    EpisodeArrays,
-    ShardWriter,
     describe_dataset,
-    failure_code,
     read_dataset,
     read_shard,
     shard_paths,
     split_indices_by_object,
 )
+from tognet.data.format import (
+    FAILURE_CODES,
+    FIELDS,
+    FORMAT_VERSION,
+    DatasetError,
+    EpisodeArrays,
+    failure_code,
+)
+from tognet.data.writer import ShardWriter
+from tognet.lazy_names import lazy_names
 
 __all__ = [
     "FAILURE_CODES",
@@ -34,11 +37,4 @@ __all__ = [
     "split_indices_by_object",
     "EpisodeDataset",
 ]
-
-
-def __getattr__(name: str) -> object:
-    if name == "EpisodeDataset":
-        from tognet.data.torch_dataset import EpisodeDataset
-
-        return EpisodeDataset
-    raise AttributeError(name)
+__getattr__, __dir__ = lazy_names(__name__, {"EpisodeDataset": "tognet.data.torch_dataset"})

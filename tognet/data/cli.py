@@ -14,7 +14,9 @@ data_app = typer.Typer(help="Inspect and make episode datasets.", no_args_is_hel
 
 def _totals_from_shards(folder: Path) -> dict[str, object]:
     """Task and manifest-style totals of a dataset folder read from its shards' label columns."""
-    from tognet.data.episodes import DatasetError, manifest_totals, read_columns, shard_paths, summarise
+    from tognet.data.episodes import read_columns, shard_paths
+    from tognet.data.format import DatasetError, summarise
+    from tognet.data.manifest import manifest_totals
 
     entries, tasks = [], set()
     for path in shard_paths(folder):
@@ -37,13 +39,8 @@ def data_info_cmd(
     """Print a dataset's manifest totals; with --check read every shard."""
     from tqdm import tqdm
 
-    from tognet.data.episodes import (
-        DatasetError,
-        describe_dataset,
-        expand_dataset_dirs,
-        read_shard,
-        shard_paths,
-    )
+    from tognet.data.episodes import describe_dataset, expand_dataset_dirs, read_shard, shard_paths
+    from tognet.data.format import DatasetError
 
     folders = expand_dataset_dirs([folder])
     descs = describe_dataset(folders)["datasets"]

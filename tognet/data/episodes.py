@@ -5,446 +5,43 @@ action that were executed, and the labels the simulator produced. A dataset fold
 
     out_dir/
       manifest.json          format version, task, one entry per shard (counts, rates, sha256, metadata)
-      shard-00000.npz        arrays named as in :data:`FIELDS`, plus ``meta_json`` (per-shard metadata)
+      shard-00000.npz        the fields of :mod:`tognet.data.format`, plus ``meta_json`` (per-shard metadata)
       shard-00001.npz
       configs/<name>.json    configs saved beside the data (simulator, task, policy, ...)
 
-Crops are stored as float16 (8 KiB a record before compression; its ~3e-5 m step near 3 cm is far below the
-depth noise) in compressed ``.npz`` files; readers hand them out as float16 too (cast to float32 per batch).
-Format version 1 (float32 crops, no ``grasp_source``/``action_source``/``score``) and 2 (no ``progress``,
-the task's graded outcome :meth:`tognet.tasks.Task.progress`) are still read; missing fields get their
-defaults (``progress`` -1: unknown).
-
-Shards are written to a temporary file and renamed, so a crash never leaves a half-written shard under
-its final name. A writer opened on an existing folder appends new shard indices and never overwrites.
-One writer per folder at a time (an advisory lock on ``.writer.lock``, released when the process ends);
-parallel workers write to sibling folders, e.g. ``round1/worker-00``, and readers accept the parent
-folder (every sub-folder holding a ``manifest.json`` is read).
+Reading them: one shard, a folder, several rounds' folders (parallel workers write to sibling folders,
+e.g. ``round1/worker-00``, and a reader given the parent reads every sub-folder holding a
+``manifest.json``), and the train/validation split by object. The record's fields and codes:
+:mod:`tognet.data.format`; the manifest: :mod:`tognet.data.manifest`; writing: :mod:`tognet.data.writer`.
+Crops are handed out as float16 (cast to float32 per batch).
 """
 
 from __future__ import annotations
 
-import dataclasses
-import fcntl
 import json
-import os
-import re
 import warnings
 import zipfile
 import zlib
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from tognet.errors import TognetError
-from tognet.io import sha256_file
-from tognet.tasks.base import FailureReason
-
-#: Version of the shard/manifest layout; bump on any incompatible change.
-FORMAT_VERSION = 3
-#: Versions this code reads (older shards get the new fields' defaults).
-READABLE_VERSIONS = (1, 2, 3)
-CROP_SIZE = 64
-MANIFEST = "manifest.json"
-SHARD_PATTERN = re.compile(r"^shard-(\d{5,})\.npz$")
-
-#: name -> (dtype, per-episode shape). ``object_id`` is a unicode string.
-FIELDS: dict[str, tuple[np.dtype, tuple[int, ...]]] = {
-    "crop": (np.dtype(np.float16), (CROP_SIZE, CROP_SIZE)),
-    "z": (np.dtype(np.float32), ()),
-    "grasp": (np.dtype(np.float32), (4,)),
-    "action": (np.dtype(np.float32), (4,)),
-    "grasp_success": (np.dtype(np.uint8), ()),
-    "task_success": (np.dtype(np.uint8), ()),
-    "valid": (np.dtype(np.uint8), ()),
-    "failure": (np.dtype(np.int8), ()),
-    "object_id": (np.dtype("U"), ()),
-    "scene_seed": (np.dtype(np.int64), ()),
-    "trial": (np.dtype(np.int32), ()),
-    "grasp_source": (np.dtype(np.int8), ()),
-    "action_source": (np.dtype(np.int8), ()),
-    "score": (np.dtype(np.float32), ()),
-    "progress": (np.dtype(np.float32), ()),
-}
-#: int8 codes of where an episode's grasp came from (``grasp_source``) and its action (``action_source``);
-#: stored in every manifest. Collection policies name themselves with these.
-GRASP_SOURCES: dict[str, int] = {"unknown": 0, "nms": 1, "cem": 2, "given": 3, "search": 4}
-ACTION_SOURCES: dict[str, int] = {"unknown": 0, "uniform": 1, "baseline_random": 2, "policy": 3, "given": 4,
-                                  "none": 5, "expert": 6, "search": 7}
-#: int8 code of each failure reason, by name: its position in ``tognet.tasks.FailureReason`` (append new
-#: reasons at the end of the enum so stored codes keep their meaning); stored in every manifest so a
-#: dataset explains its own codes. ``failure`` may also be given as these names.
-FAILURE_CODES: dict[str, int] = {reason.value: code for code, reason in enumerate(FailureReason)}
+from tognet.data.format import (
+    DEFAULTS,
+    FIELDS,
+    FORMAT_VERSION,
+    MANIFEST,
+    READABLE_VERSIONS,
+    SHARD_PATTERN,
+    DatasetError,
+    EpisodeArrays,
+    check_column,
+)
+from tognet.data.manifest import read_manifest
 
 
-def failure_code(reason: object) -> int:
-    """The int8 code of a failure reason given by name (str or StrEnum) or already as an integer."""
-    if isinstance(reason, int | np.integer) and not isinstance(reason, bool):
-        return int(reason)
-    name = str(getattr(reason, "value", reason))
-    if name not in FAILURE_CODES:
-        raise ValueError(f"field 'failure': unknown failure reason {name!r}; known: {list(FAILURE_CODES)}")
-    return FAILURE_CODES[name]
-
-
-#: Fields a caller may leave out of :meth:`ShardWriter.add`, with their default value.
-DEFAULTS: dict[str, Any] = {"valid": 1, "failure": 0, "trial": 0, "grasp_source": 0, "action_source": 0,
-                            "score": -1.0, "progress": -1.0}
-
-
-class DatasetError(TognetError):
-    """A dataset folder, manifest or shard is missing, corrupt or inconsistent."""
-
-
-@dataclasses.dataclass
-class EpisodeArrays:
-    """Episodes as column arrays (length N each); see :data:`FIELDS` for dtypes and shapes."""
-
-    crop: np.ndarray
-    z: np.ndarray
-    grasp: np.ndarray
-    action: np.ndarray
-    grasp_success: np.ndarray
-    task_success: np.ndarray
-    valid: np.ndarray
-    failure: np.ndarray
-    object_id: np.ndarray
-    scene_seed: np.ndarray
-    trial: np.ndarray
-    grasp_source: np.ndarray = None  # type: ignore[assignment]  (None: the default for every episode)
-    action_source: np.ndarray = None  # type: ignore[assignment]
-    score: np.ndarray = None  # type: ignore[assignment]
-    progress: np.ndarray = None  # type: ignore[assignment]
-
-    def __post_init__(self) -> None:
-        n = int(np.asarray(self.z).shape[0])
-        for name in ("grasp_source", "action_source", "score", "progress"):
-            if getattr(self, name) is None:
-                setattr(self, name, np.full((n,), DEFAULTS[name], dtype=FIELDS[name][0]))
-
-    def __len__(self) -> int:
-        return int(self.z.shape[0])
-
-    def subset(self, index: np.ndarray | Sequence[int]) -> EpisodeArrays:
-        """The episodes at ``index`` (an integer or boolean array)."""
-        index = np.asarray(index)
-        return EpisodeArrays(**{name: getattr(self, name)[index] for name in FIELDS})
-
-    @staticmethod
-    def empty() -> EpisodeArrays:
-        """An EpisodeArrays with zero episodes and the right dtypes and shapes."""
-        return EpisodeArrays(**{n: np.zeros((0, *shape), dtype=dt) for n, (dt, shape) in FIELDS.items()})
-
-    @staticmethod
-    def concatenate(parts: Sequence[EpisodeArrays]) -> EpisodeArrays:
-        """Join several EpisodeArrays end to end."""
-        if not parts:
-            return EpisodeArrays.empty()
-        return EpisodeArrays(**{n: np.concatenate([getattr(p, n) for p in parts]) for n in FIELDS})
-
-    def summary(self) -> dict[str, Any]:
-        """Counts and success rates (over valid episodes), as JSON-ready numbers."""
-        return summarise(self.valid, self.grasp_success, self.task_success, self.failure)
-
-
-def summarise(valid: np.ndarray, s_g: np.ndarray, s_t: np.ndarray, failure: np.ndarray) -> dict[str, Any]:
-    """Counts and success rates (over valid episodes) of label columns, as a manifest's shard entry has."""
-    ok = valid.astype(bool)
-    n_valid = int(ok.sum())
-    n_grasp = int((s_g.astype(bool) & ok).sum())
-    n_task = int((s_t.astype(bool) & ok).sum())
-    codes, counts = np.unique(failure[ok], return_counts=True)
-    return {
-        "episodes": int(valid.shape[0]),
-        "valid": n_valid,
-        "grasp_success": n_grasp,
-        "task_success": n_task,
-        "grasp_success_rate": n_grasp / n_valid if n_valid else None,
-        "task_success_rate": n_task / n_valid if n_valid else None,
-        "task_given_grasp_rate": n_task / n_grasp if n_grasp else None,
-        "failures": {str(int(c)): int(k) for c, k in zip(codes, counts, strict=True)},
-    }
-
-
-def _check_column(name: str, value: Any, n: int | None) -> np.ndarray:
-    """Convert one column to its declared dtype and check its shape; ValueError names the field."""
-    dtype, shape = FIELDS[name]
-    arr = np.asarray(value)
-    if name == "failure" and arr.dtype.kind in "UO":
-        arr = np.vectorize(failure_code, otypes=[np.int64])(arr) if arr.size else arr.astype(np.int64)
-    if name == "object_id":
-        if arr.dtype.kind not in "UO":
-            raise ValueError(f"field 'object_id': expected strings, got dtype {arr.dtype}")
-        arr = arr.astype(str)
-    else:
-        if arr.dtype.kind not in "biuf":
-            raise ValueError(f"field '{name}': expected numbers, got dtype {arr.dtype}")
-        integral = dtype.kind not in "iu" or arr.dtype.kind != "f" or bool(
-            np.all(np.isfinite(arr) & (arr == np.round(arr))))  # only integer fields need the check
-        if not integral:
-            raise ValueError(f"field '{name}': expected integers, got non-integer values")
-        arr = arr.astype(dtype, copy=False)
-    if arr.shape[1:] != shape or (n is not None and arr.shape[0] != n):
-        want = (n if n is not None else "N", *shape)
-        raise ValueError(f"field '{name}': expected shape {want}, got {arr.shape}")
-    if dtype.kind == "f" and not np.all(np.isfinite(arr)):
-        raise ValueError(f"field '{name}': contains NaN or infinite values")
-    return arr
-
-
-def atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` whole or not at all (temporary file, fsync, rename)."""
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    with open(tmp, "wb") as fh:
-        fh.write(data)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
-
-
-def read_manifest(folder: Path) -> dict[str, Any] | None:
-    """A dataset folder's manifest, checked to be a readable tognet one (None when the folder has none)."""
-    path = folder / MANIFEST
-    if not path.is_file():
-        return None
-    try:
-        manifest = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise DatasetError(f"{path}: not a valid manifest ({exc})") from exc
-    if not isinstance(manifest, dict) or "shards" not in manifest:
-        raise DatasetError(f"{path}: not a tognet episode manifest (no 'shards')")
-    version = manifest.get("format_version")
-    if version not in READABLE_VERSIONS:
-        raise DatasetError(f"{path}: format_version {version!r}, this tognet reads {list(READABLE_VERSIONS)}")
-    return manifest
-
-
-def manifest_totals(shards: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
-    """Counts, rates and failure tallies summed over a manifest's shard entries."""
-    totals: dict[str, Any] = {"shards": len(shards), "episodes": sum(s["count"] for s in shards)}
-    for key in ("valid", "grasp_success", "task_success"):
-        totals[key] = sum(s[key] for s in shards)
-    totals["grasp_success_rate"] = totals["grasp_success"] / totals["valid"] if totals["valid"] else None
-    totals["task_success_rate"] = totals["task_success"] / totals["valid"] if totals["valid"] else None
-    totals["task_given_grasp_rate"] = (
-        totals["task_success"] / totals["grasp_success"] if totals["grasp_success"] else None
-    )
-    failures: dict[str, int] = {}
-    for s in shards:
-        for code, k in s.get("failures", {}).items():
-            failures[code] = failures.get(code, 0) + k
-    totals["failures"] = failures
-    return totals
-
-
-def new_manifest(task: str) -> dict[str, Any]:
-    """An empty manifest for a dataset folder of ``task``."""
-    return {"format_version": FORMAT_VERSION, "task": task, "failure_codes": FAILURE_CODES,
-            "grasp_sources": GRASP_SOURCES, "action_sources": ACTION_SOURCES, "shards": [], "configs": []}
-
-
-def write_manifest(folder: Path, manifest: dict[str, Any]) -> None:
-    """Recompute the manifest's totals and write it atomically (a reader never sees half a manifest)."""
-    manifest["format_version"] = FORMAT_VERSION
-    manifest["totals"] = manifest_totals(manifest["shards"])
-    data = json.dumps(manifest, indent=2) + "\n"
-    atomic_write_bytes(Path(folder) / MANIFEST, data.encode())
-
-
-def save_config(folder: Path, manifest: dict[str, Any], name: str, cfg: Any, meta: Mapping[str, Any]) -> None:
-    """Save a config (a :class:`tognet.config.Config` or a dict) as ``configs/<name>.json`` beside the data
-    and list it in ``manifest`` (not written here); a name already used with different content gets a
-    numbered suffix, never an overwrite."""
-    if hasattr(cfg, "to_dict"):
-        payload = {"config_type": type(cfg).__name__, **cfg.to_dict()}
-    elif isinstance(cfg, Mapping):
-        payload = dict(cfg)
-    else:
-        raise ValueError(f"config '{name}': expected a Config or a dict, got {type(cfg).__name__}")
-    text = json.dumps(payload, indent=2) + "\n"
-    configs = Path(folder) / "configs"
-    configs.mkdir(exist_ok=True)
-    stem, k = name, 1
-    while (configs / f"{stem}.json").exists():
-        if (configs / f"{stem}.json").read_text() == text:
-            return
-        k += 1
-        stem = f"{name}-{k}"
-    atomic_write_bytes(configs / f"{stem}.json", text.encode())
-    entry = {"file": f"configs/{stem}.json", "name": name, "meta": dict(meta)}
-    manifest.setdefault("configs", []).append(entry)
-
-
-def check_columns(columns: Mapping[str, Any]) -> dict[str, np.ndarray]:
-    """Episode columns in their declared dtypes, defaults filled in; ValueError names a bad field."""
-    unknown = sorted(set(columns) - set(FIELDS))
-    if unknown:
-        raise ValueError(f"unknown episode field(s) {unknown}; known: {list(FIELDS)}")
-    if "z" not in columns:
-        raise ValueError("missing episode field 'z'")
-    n = int(np.asarray(columns["z"]).shape[0])
-    checked: dict[str, np.ndarray] = {}
-    for name in FIELDS:
-        if name in columns:
-            checked[name] = _check_column(name, columns[name], n)
-        elif name in DEFAULTS:
-            checked[name] = np.full((n,), DEFAULTS[name], dtype=FIELDS[name][0])
-        else:
-            raise ValueError(f"missing episode field '{name}'")
-    return checked
-
-
-def write_shard(path: Path, columns: Mapping[str, np.ndarray], meta: Mapping[str, Any]) -> dict[str, Any]:
-    """Write checked episode columns as one compressed shard, atomically (temporary file, fsync, rename);
-    returns its manifest entry (file, count, sha256, meta, label tallies). Refuses to overwrite."""
-    path = Path(path)
-    if path.exists():
-        raise DatasetError(f"{path}: already exists, refusing to overwrite")
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        with open(tmp, "wb") as fh:
-            np.savez_compressed(fh, meta_json=np.array(json.dumps(dict(meta))),
-                                format_version=np.array(FORMAT_VERSION), **columns)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-    count = int(np.asarray(columns["z"]).shape[0])
-    return {
-        "file": path.name,
-        "count": count,
-        "sha256": sha256_file(path),
-        "meta": dict(meta),
-        **{k: v for k, v in summarise(columns["valid"], columns["grasp_success"], columns["task_success"],
-                                        columns["failure"]).items() if k != "episodes"},
-    }
-
-
-class ShardWriter:
-    """Buffer episodes and write them as numbered shards with a manifest.
-
-    ``meta`` (e.g. ``{"round": 1, "policy": "nms_random"}``) is stored in every shard this writer writes
-    and in its manifest entries. ``configs`` are saved as ``configs/<name>.json`` beside the data (a name
-    already used with different content gets a numbered suffix, never an overwrite).
-    """
-
-    def __init__(
-        self,
-        out_dir: str | Path,
-        task: str,
-        meta: Mapping[str, Any] | None = None,
-        shard_size: int = 4096,
-        configs: Mapping[str, Any] | None = None,
-    ) -> None:
-        if shard_size < 1:
-            raise ValueError(f"shard_size must be >= 1, got {shard_size}")
-        if not task:
-            raise ValueError("task name must not be empty")
-        self.out_dir = Path(out_dir)
-        self.task = task
-        self.meta = {"task": task, **dict(meta or {})}
-        if self.meta["task"] != task:
-            raise ValueError(f"meta['task']={self.meta['task']!r} disagrees with task={task!r}")
-        json.dumps(self.meta)  # metadata must be JSON-serialisable; fail now, not at the first flush
-        self.shard_size = int(shard_size)
-        self.out_dir.mkdir(parents=True, exist_ok=True)
-        self._lock = open(self.out_dir / ".writer.lock", "a")  # noqa: SIM115 (held until close)
-        try:
-            fcntl.flock(self._lock.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            self._lock.close()
-            raise DatasetError(f"{self.out_dir}: another ShardWriter is writing to this folder") from None
-        try:
-            self._open()
-            for name, cfg in (configs or {}).items():
-                self._save_config(name, cfg)
-            self._write_manifest()
-        except BaseException:
-            self._release()
-            raise
-
-    def _release(self) -> None:
-        if not self._lock.closed:
-            fcntl.flock(self._lock.fileno(), fcntl.LOCK_UN)
-            self._lock.close()
-
-    def _open(self) -> None:
-        task = self.task
-        manifest = read_manifest(self.out_dir)
-        if manifest is None:
-            manifest = new_manifest(task)
-        elif manifest.get("task") != task:
-            raise DatasetError(
-                f"{self.out_dir / MANIFEST}: holds task {manifest.get('task')!r}, refusing to add {task!r}"
-            )
-        self._manifest = manifest
-        on_disk = [int(m.group(1)) for p in self.out_dir.iterdir() if (m := SHARD_PATTERN.match(p.name))]
-        listed = [int(SHARD_PATTERN.match(s["file"]).group(1)) for s in manifest["shards"]]  # type: ignore[union-attr]
-        self._next_index = max([-1, *on_disk, *listed]) + 1
-        self._buffer: dict[str, list[np.ndarray]] = {name: [] for name in FIELDS}
-        self._buffered = 0
-        self._closed = False
-        self.written: list[Path] = []
-
-    # -- adding episodes --------------------------------------------------------------------------------
-    def add(self, **episode: Any) -> None:
-        """Add one episode given as keyword fields (see :data:`FIELDS`; valid/failure/trial optional)."""
-        self.add_batch(**{k: np.asarray(v)[None] for k, v in episode.items()})
-
-    def add_batch(self, **columns: Any) -> None:
-        """Add N episodes given as column arrays with a leading dimension N."""
-        if self._closed:
-            raise DatasetError(f"{self.out_dir}: writer already closed")
-        checked = check_columns(columns)
-        n = int(checked["z"].shape[0])
-        for name, arr in checked.items():
-            self._buffer[name].append(arr)
-        self._buffered += n
-        while self._buffered >= self.shard_size:
-            self._flush(self.shard_size)
-
-    # -- writing ----------------------------------------------------------------------------------------
-    def _flush(self, count: int) -> None:
-        columns = {name: np.concatenate(parts) for name, parts in self._buffer.items()}
-        head = {name: arr[:count] for name, arr in columns.items()}
-        self._buffer = {name: [arr[count:]] for name, arr in columns.items()}
-        self._buffered -= count
-        path = self.out_dir / f"shard-{self._next_index:05d}.npz"
-        entry = write_shard(path, head, self.meta)
-        self._next_index += 1
-        self.written.append(path)
-        self._manifest["shards"].append(entry)
-        self._write_manifest()
-
-    def _write_manifest(self) -> None:
-        write_manifest(self.out_dir, self._manifest)
-
-    def _save_config(self, name: str, cfg: Any) -> None:
-        save_config(self.out_dir, self._manifest, name, cfg, self.meta)
-
-    def close(self) -> list[Path]:
-        """Write the remaining buffered episodes as a last (smaller) shard; returns all shards written."""
-        if not self._closed:
-            try:
-                if self._buffered:
-                    self._flush(self._buffered)
-            finally:
-                self._closed = True
-                self._release()
-        return self.written
-
-    def __enter__(self) -> ShardWriter:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-
-# -- reading ------------------------------------------------------------------------------------------
 def read_shard(path: str | Path) -> tuple[EpisodeArrays, dict[str, Any]]:
     """One shard's episodes (all of them, valid or not) and its metadata; DatasetError names the file."""
     columns, meta = read_columns(path, tuple(FIELDS))
@@ -480,7 +77,7 @@ def read_columns(path: str | Path, fields: Sequence[str]) -> tuple[dict[str, np.
             zlib.error, json.JSONDecodeError) as exc:
         raise DatasetError(f"{path}: corrupt or truncated shard ({type(exc).__name__}: {exc})") from exc
     try:
-        checked = {name: _check_column(name, arr, n) for name, arr in columns.items()}
+        checked = {name: check_column(name, arr, n) for name, arr in columns.items()}
     except ValueError as exc:
         raise DatasetError(f"{path}: {exc}") from exc
     return checked, meta

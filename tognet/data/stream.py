@@ -20,7 +20,7 @@ episodes, 8 KiB each as float16 crops), one shard being decoded and ``prefetch``
 the size of the dataset; the per-shard bookkeeping (path, counts, object ids) is a few hundred bytes a
 shard.
 
-A corrupt, truncated or missing shard raises :class:`~tognet.data.episodes.DatasetError` naming the file,
+A corrupt, truncated or missing shard raises :class:`~tognet.data.format.DatasetError` naming the file,
 or, with ``skip_bad``, is skipped with a warning (once; it is then left out of every later pass).
 """
 
@@ -38,13 +38,8 @@ from typing import Any, Literal
 import numpy as np
 import torch
 
-from tognet.data.episodes import (
-    DatasetError,
-    dataset_shards,
-    expand_dataset_dirs,
-    read_columns,
-    split_indices_by_object,
-)
+from tognet.data.episodes import dataset_shards, expand_dataset_dirs, read_columns, split_indices_by_object
+from tognet.data.format import DatasetError
 
 Split = Literal["train", "val", "all"]
 #: Columns a batch carries, and the columns read to select a shard's rows.

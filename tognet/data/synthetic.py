@@ -18,7 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from tognet.data.episodes import CROP_SIZE, FAILURE_CODES, EpisodeArrays, ShardWriter
+from tognet.data.format import CROP_SIZE, FAILURE_CODES, EpisodeArrays
+from tognet.data.writer import ShardWriter
 
 TABLE = 0.03  # metres below the gripper depth
 BAR = -0.01  # metres: the bar's top surface is above the gripper depth

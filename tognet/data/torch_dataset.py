@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-from typing import Any
-
 import numpy as np
 import torch
 from torch.utils.data import Dataset
 
-from tognet.data.episodes import EpisodeArrays, read_dataset, split_indices_by_object
+from tognet.data.episodes import split_indices_by_object
+from tognet.data.format import EpisodeArrays
 
 
 class EpisodeDataset(Dataset):
@@ -23,11 +21,6 @@ class EpisodeDataset(Dataset):
         self._action = torch.from_numpy(episodes.action.astype(np.float32))
         self._s_g = torch.from_numpy(episodes.grasp_success.astype(np.float32))
         self._s_t = torch.from_numpy(episodes.task_success.astype(np.float32))
-
-    @classmethod
-    def from_dirs(cls, dirs: list[str | Path] | str | Path, **kwargs: Any) -> EpisodeDataset:
-        """Read dataset folders (see :func:`read_dataset`; invalid episodes dropped)."""
-        return cls(read_dataset(dirs, **kwargs))
 
     def __len__(self) -> int:
         return len(self.episodes)

@@ -27,7 +27,7 @@ def checks() -> list[tuple[str, str, str]]:
 def run_task_demo(out: Path, seeds: int = 5, gif: bool = True) -> list[Path]:
     """Run the checks and write the pictures into ``out``; returns the files written."""
     from tognet.grasping import AntipodalConfig, prepare_depth
-    from tognet.grasping.cli import render_grasps
+    from tognet.grasping.draw import render_grasps
     from tognet.objects.handmade import grasp_on_object, make_test_tools
     from tognet.sim import SimConfig, Simulator
     from tognet.sim.scripted_checks import run_check

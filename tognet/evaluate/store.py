@@ -20,8 +20,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from tognet.data.episodes import atomic_write_bytes
 from tognet.errors import TognetError
+from tognet.io import atomic_write_bytes
 
 META = "meta.json"
 JOB_NAME = "job-{:06d}.json"

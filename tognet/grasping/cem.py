@@ -83,10 +83,6 @@ class GaussianMixture:
         eps = rng.standard_normal((n, self.means.shape[1]))
         return self.means[comp] + np.einsum("nij,nj->ni", chol[comp], eps)
 
-    def log_density(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
-        """(N, K) log of weight_k * N(x | mean_k, cov_k)."""
-        return _log_weighted(x, self.weights, self.means, self.covariances)
-
 
 def _log_weighted(x: NDArray, weights: NDArray, means: NDArray, covs: NDArray) -> NDArray[np.float64]:
     d = x.shape[1]

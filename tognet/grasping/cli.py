@@ -1,28 +1,25 @@
 """``tognet grasps``: sample antipodal grasp candidates on a depth image and draw them.
 
 Candidates are coloured by a score: the analytic antipodality quality by default, or any scorer
-(``score_fn(grasps (M, 4)) -> (M,)``) through :func:`render_grasps`. ``--checkpoint`` colours them by a
-trained TOG-Net's Q_T (``tognet.model.scorer_from_checkpoint(path, scene) -> score_fn``).
+(``score_fn(grasps (M, 4)) -> (M,)``) through :func:`tognet.grasping.draw.render_grasps`. ``--checkpoint``
+colours them by a trained TOG-Net's Q_T (``tognet.model.scorer_from_checkpoint(path, scene) -> score_fn``).
 """
 
 from __future__ import annotations
 
-import importlib
 import json
 from pathlib import Path
 
-import numpy as np
 import typer
 
 from tognet.cliutil import user_errors
 from tognet.config import ConfigError
 from tognet.errors import TognetError
 from tognet.geometry import Camera
-from tognet.grasping.antipodal import AntipodalConfig, GraspCandidates, sample_antipodal
-from tognet.grasping.cem import CEMConfig, ScoreFn, cem
+from tognet.grasping.antipodal import AntipodalConfig
+from tognet.grasping.cem import ScoreFn
 from tognet.grasping.depth import DepthScene, load_depth_file, prepare_depth
-from tognet.grasping.draw import draw_grasps
-from tognet.grasping.nms import NMSConfig, nms
+from tognet.grasping.draw import render_grasps
 
 
 def antipodal_config(value: str | None) -> AntipodalConfig:
@@ -43,62 +40,9 @@ def load_scorer(checkpoint: Path, scene: DepthScene) -> ScoreFn:
     """The hook for a learned scorer: ``tognet.model.scorer_from_checkpoint(checkpoint, scene)``."""
     if not checkpoint.is_file():
         raise FileNotFoundError(f"checkpoint not found: {checkpoint}")
-    try:
-        model = importlib.import_module("tognet.model")
-        factory = model.scorer_from_checkpoint
-    except (ImportError, AttributeError) as exc:
-        raise TognetError(
-            "--checkpoint needs tognet.model.scorer_from_checkpoint(path, scene), which is not available yet"
-        ) from exc
-    return factory(checkpoint, scene)
+    from tognet.model.predict import scorer_from_checkpoint
 
-
-def render_grasps(
-    scene: DepthScene,
-    out: Path,
-    *,
-    config: AntipodalConfig,
-    seed: int = 0,
-    score_fn: ScoreFn | None = None,
-    use_nms: bool = False,
-    nms_config: NMSConfig | None = None,
-    use_cem: bool = False,
-    cem_config: CEMConfig | None = None,
-) -> tuple[GraspCandidates, np.ndarray, Path]:
-    """Sample candidates on ``scene``, score them (``score_fn`` or the analytic quality), draw to ``out``.
-
-    With ``use_cem`` (needs ``score_fn``) the cross-entropy method refines the grasp from the candidates
-    and its best grasp is drawn in red on top.
-    """
-    if use_cem and score_fn is None:
-        raise TognetError(
-            "--cem needs a scorer (--checkpoint): the analytic quality only exists for candidates"
-        )
-    rng = np.random.default_rng(seed)
-    cands = sample_antipodal(scene, None, config, rng)
-    scores = cands.quality if score_fn is None or len(cands) == 0 else np.asarray(score_fn(cands.grasps))
-    if scores.shape != (len(cands),):
-        raise TognetError(f"the scorer returned shape {scores.shape} for {len(cands)} grasps")
-    if use_nms and len(cands):
-        keep = nms(cands.grasps, scores, nms_config or NMSConfig())
-        cands, scores = cands.subset(keep), scores[keep]
-    highlight = None
-    label = "analytic quality" if score_fn is None else "scorer"
-    if use_cem and score_fn is not None and len(cands):
-        result = cem(score_fn, cands.grasps, cem_config or CEMConfig(), rng)
-        highlight = result.best
-        label += f", CEM best {result.best_score:.3f}"
-    path = draw_grasps(
-        scene.depth,
-        scene.camera,
-        cands.grasps,
-        scores,
-        out,
-        widths=cands.widths,
-        title=f"[{label}]",
-        highlight=highlight,
-    )
-    return cands, scores, path
+    return scorer_from_checkpoint(checkpoint, scene)
 
 
 @user_errors

@@ -1,4 +1,5 @@
-"""Draw grasp candidates (jaw lines) on a depth image, coloured by a score."""
+"""Draw grasp candidates (jaw lines) on a depth image, coloured by a score; :func:`render_grasps` samples,
+scores and draws them in one call (``tognet grasps``, the demo)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,12 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from tognet.errors import TognetError
 from tognet.geometry import Camera
+from tognet.grasping.antipodal import AntipodalConfig, GraspCandidates, sample_antipodal
+from tognet.grasping.cem import CEMConfig, ScoreFn, cem
+from tognet.grasping.depth import DepthScene
+from tognet.grasping.nms import NMSConfig, nms
 
 
 def depth_to_rgb(depth: NDArray[np.float32]) -> NDArray[np.uint8]:
@@ -90,3 +96,51 @@ def draw_grasps(
     out.parent.mkdir(parents=True, exist_ok=True)
     img.save(out)
     return out
+
+
+def render_grasps(
+    scene: DepthScene,
+    out: Path,
+    *,
+    config: AntipodalConfig,
+    seed: int = 0,
+    score_fn: ScoreFn | None = None,
+    use_nms: bool = False,
+    nms_config: NMSConfig | None = None,
+    use_cem: bool = False,
+    cem_config: CEMConfig | None = None,
+) -> tuple[GraspCandidates, np.ndarray, Path]:
+    """Sample candidates on ``scene``, score them (``score_fn`` or the analytic quality), draw to ``out``.
+
+    With ``use_cem`` (needs ``score_fn``) the cross-entropy method refines the grasp from the candidates
+    and its best grasp is drawn in red on top.
+    """
+    if use_cem and score_fn is None:
+        raise TognetError(
+            "--cem needs a scorer (--checkpoint): the analytic quality only exists for candidates"
+        )
+    rng = np.random.default_rng(seed)
+    cands = sample_antipodal(scene, None, config, rng)
+    scores = cands.quality if score_fn is None or len(cands) == 0 else np.asarray(score_fn(cands.grasps))
+    if scores.shape != (len(cands),):
+        raise TognetError(f"the scorer returned shape {scores.shape} for {len(cands)} grasps")
+    if use_nms and len(cands):
+        keep = nms(cands.grasps, scores, nms_config or NMSConfig())
+        cands, scores = cands.subset(keep), scores[keep]
+    highlight = None
+    label = "analytic quality" if score_fn is None else "scorer"
+    if use_cem and score_fn is not None and len(cands):
+        result = cem(score_fn, cands.grasps, cem_config or CEMConfig(), rng)
+        highlight = result.best
+        label += f", CEM best {result.best_score:.3f}"
+    path = draw_grasps(
+        scene.depth,
+        scene.camera,
+        cands.grasps,
+        scores,
+        out,
+        widths=cands.widths,
+        title=f"[{label}]",
+        highlight=highlight,
+    )
+    return cands, scores, path

@@ -8,10 +8,9 @@ is the submodule and would shadow a lazily exported ``train``. Names are importe
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from tognet.lazy_names import lazy_names
 
-_EXPORTS = {
+_WHERE = {
     "ArchConfig": "tognet.model.config",
     "LossConfig": "tognet.model.config",
     "TrainConfig": "tognet.model.config",
@@ -21,14 +20,8 @@ _EXPORTS = {
     "Prediction": "tognet.model.predict",
     "TOGNetPredictor": "tognet.model.predict",
     "scorer_from_checkpoint": "tognet.model.predict",
-    "train_model": "tognet.model.train",
+    "train_model": "tognet.model.train:train",
 }
 
-__all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name: str) -> Any:
-    if name in _EXPORTS:
-        source = "train" if name == "train_model" else name
-        return getattr(importlib.import_module(_EXPORTS[name]), source)
-    raise AttributeError(f"module 'tognet.model' has no attribute {name!r}")
+__all__ = sorted(_WHERE)
+__getattr__, __dir__ = lazy_names(__name__, _WHERE)

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import functools
-import os
 import subprocess
 from pathlib import Path
 from typing import Any
@@ -40,6 +39,7 @@ import torch
 import tognet
 from tognet.config import ConfigError
 from tognet.errors import TognetError
+from tognet.io import atomic_writer
 from tognet.model.config import ArchConfig, TrainConfig
 from tognet.model.network import TOGNet
 
@@ -117,9 +117,8 @@ def save_checkpoint(
         "metrics": metrics or {},
         "training": training,
     }
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    torch.save(payload, tmp)
-    os.replace(tmp, path)
+    with atomic_writer(path, fsync=False) as fh:
+        torch.save(payload, fh)
     return path
 
 

@@ -21,7 +21,6 @@ Writes into ``out``::
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import json
 import math
 import os
@@ -38,6 +37,7 @@ from tqdm import tqdm
 from tognet.data.episodes import dataset_configs, describe_dataset
 from tognet.data.stream import Batch, EpisodeStream
 from tognet.errors import TognetError
+from tognet.io import atomic_write_text, sha256_file
 from tognet.model.checkpoint import (
     CheckpointError,
     load_checkpoint,
@@ -253,14 +253,6 @@ def train(
         torch.use_deterministic_algorithms(saved[1], warn_only=saved[2])
 
 
-def _file_sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
 def _load_init(
     init_from: str | Path, task: str, config: TrainConfig
 ) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -277,7 +269,7 @@ def _load_init(
         diff = sorted(k for k in mine if mine[k] != theirs.get(k))
         raise TrainingError(f"{path}: its architecture differs from the config's in {diff}; initialise from "
                             "a checkpoint of the same architecture (or train from scratch)")
-    info = {"path": str(path.resolve()), "sha256": _file_sha256(path), "task": payload["task"],
+    info = {"path": str(path.resolve()), "sha256": sha256_file(path), "task": payload["task"],
             "epoch": int(payload["epoch"]), "best": {k: payload["best"].get(k) for k in ("epoch", "loss")},
             "crop_config": payload.get("crop_config")}
     return payload, info
@@ -513,9 +505,7 @@ def _write_metrics(out: Path, history: list[dict[str, Any]], best: dict[str, Any
     if stopped_early is not None:
         payload["stopped_early"] = stopped_early
     text = json.dumps(payload, indent=2, default=_as_jsonable, allow_nan=False) + "\n"
-    tmp = out / ".metrics.json.tmp"
-    tmp.write_text(text)
-    os.replace(tmp, out / "metrics.json")
+    atomic_write_text(out / "metrics.json", text, fsync=False)
 
 
 def evaluate_checkpoint(path: str | Path, data_dirs: Sequence[str | Path], *, skip_bad: bool = False,

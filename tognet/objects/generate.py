@@ -17,7 +17,6 @@
 from __future__ import annotations
 
 import hashlib
-import importlib
 import multiprocessing
 from collections.abc import Iterable
 from concurrent.futures import ProcessPoolExecutor
@@ -30,7 +29,6 @@ import trimesh
 from tqdm import tqdm
 
 from tognet.config import Config, doc
-from tognet.errors import TognetError
 from tognet.objects.assemble import MeshError, assemble_object, exclusive_solids
 from tognet.objects.complex import ComplexConfig, make_complex
 from tognet.objects.compose import part_densities
@@ -76,14 +74,9 @@ def _check(kind: str, split: str, index: int) -> None:
 
 
 def _realistic_module() -> Any:
-    try:
-        realistic = importlib.import_module("tognet.objects.realistic")
-    except ModuleNotFoundError as exc:
-        if exc.name != "tognet.objects.realistic":
-            raise
-        raise TognetError(
-            "the realistic object set is not available yet (no tognet/objects/realistic.py)"
-        ) from None
+    """The realistic set's module (loaded on first use: it builds meshes with trimesh)."""
+    from tognet.objects import realistic
+
     return realistic
 
 

@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tognet.errors import TognetError
+from tognet.io import atomic_write_text
 
 CATALOG_NAME = "catalog.json"
 CSV_NAME = "catalog.csv"
@@ -216,13 +217,8 @@ def write_catalog(
         "objects": [r.to_json() for r in sorted(records, key=lambda r: r.object_id)],
     }
     path = set_dir / CATALOG_NAME
-    tmp = path.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(payload, indent=1) + "\n")
-    csv_path = set_dir / CSV_NAME
-    csv_tmp = csv_path.with_suffix(".csv.tmp")
-    csv_tmp.write_text(catalog_csv_text(records))
-    tmp.replace(path)
-    csv_tmp.replace(csv_path)
+    atomic_write_text(path, json.dumps(payload, indent=1) + "\n", fsync=False)
+    atomic_write_text(set_dir / CSV_NAME, catalog_csv_text(records), fsync=False)
     return path
 
 

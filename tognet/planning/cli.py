@@ -119,9 +119,9 @@ def plan_cmd(
     if out is not None:
         written.append(str(plan.save(out)))
     if png is not None and overlay is not None:
-        from tognet.planning.user import write_atomic
+        from tognet.io import atomic_write_bytes
 
-        written.append(str(write_atomic(overlay, png)))
+        written.append(str(atomic_write_bytes(overlay, png, fsync=False)))
     if written:
         typer.echo("wrote " + ", ".join(written))
 

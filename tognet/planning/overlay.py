@@ -9,7 +9,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tognet.grasping.draw import depth_to_rgb, jaw_endpoints
-from tognet.planning.user import UserPlan, write_atomic
+from tognet.io import atomic_write_bytes
+from tognet.planning.user import UserPlan
 
 #: Colours of the chosen grasp (first) and the alternatives, in order.
 COLOURS = ((255, 40, 40), (255, 160, 0), (80, 200, 255), (200, 90, 255), (90, 230, 90), (255, 255, 255))
@@ -74,4 +75,4 @@ def render_plan(plan: UserPlan, depth: NDArray[np.float32], opening: float = 0.0
 
 def draw_plan(plan: UserPlan, depth: NDArray[np.float32], out: str | Path, opening: float = 0.08) -> Path:
     """Write :func:`render_plan` to ``out`` (atomically)."""
-    return write_atomic(out, render_plan(plan, depth, opening))
+    return atomic_write_bytes(out, render_plan(plan, depth, opening), fsync=False)

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tognet.data.episodes import ACTION_SOURCES, GRASP_SOURCES
+from tognet.data.format import ACTION_SOURCES, GRASP_SOURCES
 from tognet.geometry import Grasp
 from tognet.planning.config import PlanConfig
 from tognet.planning.plan import Plan, PlanningError

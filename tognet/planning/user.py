@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -49,6 +48,7 @@ from tognet.grasping.antipodal import AntipodalConfig, sample_antipodal
 from tognet.grasping.crops import CropConfig, extract_crops
 from tognet.grasping.depth import DepthScene, fill_holes, height_map, load_depth_file
 from tognet.grasping.nms import NMSConfig, angle_difference
+from tognet.io import atomic_write_bytes
 from tognet.planning.camera import (
     NoObjectError,
     PlaneFitConfig,
@@ -235,20 +235,7 @@ class UserPlan:
 
     def save(self, path: str | Path) -> Path:
         """Write :meth:`to_dict` as JSON (atomically: a reader never sees half a file)."""
-        return write_atomic(path, (json.dumps(self.to_dict(), indent=2) + "\n").encode())
-
-
-def write_atomic(path: str | Path, data: bytes) -> Path:
-    """Write ``data`` to ``path`` through a temporary file and a rename."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        tmp.write_bytes(data)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return path
+        return atomic_write_bytes(path, (json.dumps(self.to_dict(), indent=2) + "\n").encode(), fsync=False)
 
 
 def _rounded(value: Any, digits: int = 4) -> Any:

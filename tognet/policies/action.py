@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tognet.data.episodes import ACTION_SOURCES
+from tognet.data.format import ACTION_SOURCES
 from tognet.policies.view import ActionPick, SceneView, need_task
 
 

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tognet.data.episodes import ACTION_SOURCES, GRASP_SOURCES
+from tognet.data.format import ACTION_SOURCES, GRASP_SOURCES
 from tognet.policies.config import ActionSearchConfig
 from tognet.policies.view import ActionPick, GraspPick, SceneView
 

@@ -7,7 +7,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from tognet.data.episodes import GRASP_SOURCES
+from tognet.data.format import GRASP_SOURCES
 from tognet.grasping import cem, nms
 from tognet.policies.config import PolicyConfig
 from tognet.policies.view import GraspPick, SceneView

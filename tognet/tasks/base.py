@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 class FailureReason(StrEnum):
     """Why an episode did not succeed (NONE for a success).
 
-    The order is the int8 code stored in episode shards (``tognet.data.episodes.FAILURE_CODES``): add new
+    The order is the int8 code stored in episode shards (``tognet.data.format.FAILURE_CODES``): add new
     reasons at the end only."""
 
     NONE = "none"
