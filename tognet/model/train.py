@@ -294,6 +294,169 @@ def _normalization(stream: EpisodeStream) -> dict[str, object]:
     return stats
 
 
+def _check_request(out: Path, config: TrainConfig, resume: bool) -> None:
+    """Refuse a run that cannot start: --out taken (or not a folder), nothing to resume, bad batch sizes."""
+    last_path, best_path = out / "last.pt", out / "best.pt"
+    if out.exists() and not out.is_dir():
+        raise TrainingError(f"{out}: exists and is not a folder; pass another --out")
+    if not resume and (last_path.exists() or best_path.exists()):
+        found = "last.pt" if last_path.exists() else "best.pt"
+        raise TrainingError(f"{out}: already holds a training run ({found}); pass --resume or another --out")
+    if resume and not last_path.exists():
+        raise TrainingError(f"{last_path}: nothing to resume (no last.pt in {out})")
+    if config.batch_size < 2:
+        raise TrainingError("batch_size must be >= 2 (batch norm needs two samples)")
+    if config.shuffle_buffer < 0:
+        raise TrainingError(f"shuffle_buffer must be >= 0, got {config.shuffle_buffer}")
+
+
+@dataclasses.dataclass
+class _Data:
+    """The episodes a run trains on: the stream, its description for data.json, the crops' config and the
+    split by object."""
+
+    stream: EpisodeStream
+    counts: dict[str, Any]
+    desc: dict[str, Any]
+    crop_config: dict[str, Any] | None
+    split: dict[str, Any]
+
+
+def _open_data(data_dirs: Sequence[str | Path], task: str, config: TrainConfig,
+               init: tuple[dict[str, Any], dict[str, Any]] | None, init_from: str | Path | None,
+               progress: bool, log: Callable[[str], None]) -> _Data:
+    """List the datasets (split by object, counts), check there is enough to train on and that a warm
+    start's crops match the data's."""
+    stream = EpisodeStream(data_dirs, task, val_fraction=config.val_fraction, seed=config.seed,
+                           shuffle_buffer=config.shuffle_buffer, skip_bad=config.skip_bad_shards,
+                           progress=progress)
+    counts = stream.counts()
+    if counts["valid"] < 2:
+        raise TrainingError(f"only {counts['valid']} valid episodes in {list(map(str, data_dirs))}")
+    desc = describe_dataset(data_dirs)
+    crop_config = crop_config_from_data(data_dirs, config.arch)
+    if crop_config is None:
+        log("note: the datasets saved no CropConfig; the checkpoint cannot tell planners the crops' metric "
+            "extent (they will assume the default CropConfig)")
+    if init is not None and crop_config is not None and init[1]["crop_config"] not in (None, crop_config):
+        diff = sorted(k for k in crop_config if crop_config[k] != init[1]["crop_config"].get(k))
+        raise TrainingError(f"{init_from}: trained on crops made with another CropConfig than the data's "
+                            f"(differs in {diff}); initialise from a checkpoint trained on such crops")
+    split = {
+        "train_episodes": counts["train_episodes"], "val_episodes": counts["val_episodes"],
+        "train_objects": counts["train_objects"], "val_objects": counts["val_objects"],
+        "val_fraction": config.val_fraction, "seed": config.seed,
+    }
+    if split["train_episodes"] < 2:
+        raise TrainingError(f"only {split['train_episodes']} training episodes after the split by object")
+    if split["val_episodes"] == 0:
+        warnings.warn("no validation objects (one object, or val_fraction=0): early stopping uses the "
+                      "training loss", stacklevel=3)
+    return _Data(stream, counts, desc, crop_config, split)
+
+
+@dataclasses.dataclass
+class _State:
+    """What an epoch changes and a resume restores."""
+
+    model: TOGNet
+    optimizer: torch.optim.Optimizer
+    scheduler: torch.optim.lr_scheduler.LRScheduler
+    history: list[dict[str, Any]] = dataclasses.field(default_factory=list)
+    best: dict[str, Any] = dataclasses.field(default_factory=lambda: {"loss": None, "epoch": 0})
+    bad_epochs: int = 0
+    start_epoch: int = 0
+
+
+def _optimise(model: TOGNet, config: TrainConfig) -> tuple[torch.optim.Optimizer, Any]:
+    optimizer = torch.optim.Adam(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
+    return optimizer, torch.optim.lr_scheduler.ExponentialLR(optimizer, gamma=config.lr_decay)
+
+
+def _start_state(data: _Data, task: str, out: Path, config: TrainConfig, device: torch.device,
+                 payload: dict[str, Any] | None, init: tuple[dict[str, Any], dict[str, Any]] | None,
+                 init_from: str | Path | None, log: Callable[[str], None]) -> _State:
+    """The model and optimiser to train: resumed from ``payload`` (last.pt, checked against this run),
+    warm-started from ``init`` or fresh (normalised on the data). Sets ``data.desc["init_from"]``."""
+    model = TOGNet(config.arch).to(device)  # made first in every case: the torch RNG then runs the same
+    if payload is not None:
+        last_path = out / "last.pt"
+        old: TrainConfig = payload["config_obj"]
+        diff = _config_differences(old, config)
+        if diff:
+            raise CheckpointError(f"{last_path}: config differs from the checkpoint's in {diff}; only "
+                                  f"{list(RESUMABLE_CHANGES)} may change on --resume")
+        if payload["task"] != task:
+            raise CheckpointError(f"{last_path}: trained for task {payload['task']!r}, not {task!r}")
+        if _data_fingerprint(payload["data"]) != _data_fingerprint(data.desc):
+            raise CheckpointError(f"{last_path}: the dataset changed since this run started (shards or "
+                                  "counts differ); start a new run in another --out")
+        tr = payload.get("training")
+        if tr is None:
+            raise CheckpointError(f"{last_path}: holds no training state; cannot resume")
+        data.desc["init_from"] = payload["data"].get("init_from")
+        model = model_from_checkpoint(payload, last_path).to(device)
+        optimizer, scheduler = _optimise(model, config)
+        optimizer.load_state_dict(tr["optimizer"])
+        scheduler.load_state_dict(tr["scheduler"])
+        torch.set_rng_state(tr["rng_torch"].cpu())
+        state = _State(model, optimizer, scheduler, list(tr["history"]), dict(payload["best"]),
+                       int(tr["bad_epochs"]), int(payload["epoch"]))
+        log(f"resuming {out} after epoch {state.start_epoch} (best val loss {state.best.get('loss')})")
+        return state
+    if init is not None:
+        init_payload, data.desc["init_from"] = init
+        model = model_from_checkpoint(init_payload, init_from).to(device)  # weights and normalisation
+        log(f"initialised from {init_from} (epoch {init_payload['epoch']}, task {task}): its weights and "
+            "normalisation")
+    else:
+        data.desc["init_from"] = None
+        model.set_normalization(_normalization(data.stream))
+    out.mkdir(parents=True, exist_ok=True)
+    return _State(model, *_optimise(model, config))
+
+
+def _train_epoch(state: _State, data: _Data, config: TrainConfig, loss_config: Any, epoch: int,
+                 device: torch.device, progress: bool) -> dict[str, Any]:
+    """One pass over the training episodes; the mean loss terms and the speed."""
+    model, optimizer = state.model, state.optimizer
+    model.train()
+    sums = {k: 0.0 for k in ("loss", "grasp", "task", "action", "progress")}
+    used = 0
+    t0 = time.perf_counter()
+    bar = tqdm(data.stream.batches("train", config.batch_size, epoch=epoch),
+               total=data.stream.num_batches("train", config.batch_size),
+               desc=f"epoch {epoch + 1}/{config.epochs}", unit="batch", disable=not progress, leave=False,
+               mininterval=1.0)
+    for batch in bar:
+        if len(batch) < 2:
+            continue  # batch norm cannot train on a single sample (only the epoch's last batch can be)
+        b = batch.to(device)
+        out_b = _forward(model, b)
+        parts = tognet_loss(out_b["q_g_logit"], out_b["q_tg_logit"],
+                            model.denormalize_action(out_b["action_norm"]), b.s_g, b.s_t, b.action,
+                            loss_config, out_b.get("progress_logit"), b.progress)
+        optimizer.zero_grad(set_to_none=True)
+        parts["loss"].backward()
+        optimizer.step()
+        for k in sums:
+            sums[k] += float(parts[k].detach()) * len(b)
+        used += len(b)
+        bar.set_postfix(loss=f"{float(parts['loss'].detach()):.4f}", refresh=False)
+    seconds = time.perf_counter() - t0
+    stats: dict[str, Any] = {k: v / max(used, 1) for k, v in sums.items()}
+    stats["samples_per_s"] = used / seconds if seconds > 0 else None
+    stats["seconds"] = seconds
+    return stats
+
+
+def _monitored(config: TrainConfig, train_stats: dict[str, Any], val_stats: dict[str, Any]) -> float:
+    """The number early stopping and the best checkpoint go by (validation's when there is one)."""
+    if config.monitor == "classification":
+        return val_stats.get("classification", train_stats["grasp"] + train_stats["task"])
+    return val_stats.get("loss", train_stats["loss"])
+
+
 def _train(
     data_dirs: Sequence[str | Path],
     task: str,
@@ -308,17 +471,7 @@ def _train(
     config = config or TrainConfig()
     out = Path(out)
     last_path, best_path = out / "last.pt", out / "best.pt"
-    if out.exists() and not out.is_dir():
-        raise TrainingError(f"{out}: exists and is not a folder; pass another --out")
-    if not resume and (last_path.exists() or best_path.exists()):
-        found = "last.pt" if last_path.exists() else "best.pt"
-        raise TrainingError(f"{out}: already holds a training run ({found}); pass --resume or another --out")
-    if resume and not last_path.exists():
-        raise TrainingError(f"{last_path}: nothing to resume (no last.pt in {out})")
-    if config.batch_size < 2:
-        raise TrainingError("batch_size must be >= 2 (batch norm needs two samples)")
-    if config.shuffle_buffer < 0:
-        raise TrainingError(f"shuffle_buffer must be >= 0, got {config.shuffle_buffer}")
+    _check_request(out, config, resume)
     # read the run to resume (or the checkpoint to start from) before the data, so a bad file fails at once
     payload = load_checkpoint(last_path, map_location="cpu") if resume else None
     init: tuple[dict[str, Any], dict[str, Any]] | None = None
@@ -331,168 +484,85 @@ def _train(
     seed_everything(config.seed, config.deterministic, config.num_threads)
     tune_allocator()
     device = select_device(config.device)
-
-    stream = EpisodeStream(data_dirs, task, val_fraction=config.val_fraction, seed=config.seed,
-                           shuffle_buffer=config.shuffle_buffer, skip_bad=config.skip_bad_shards,
-                           progress=progress)
-    counts = stream.counts()
-    if counts["valid"] < 2:
-        raise TrainingError(f"only {counts['valid']} valid episodes in {list(map(str, data_dirs))}")
-    data_desc = describe_dataset(data_dirs)
-    crop_config = crop_config_from_data(data_dirs, config.arch)
-    if crop_config is None:
-        log("note: the datasets saved no CropConfig; the checkpoint cannot tell planners the crops' metric "
-            "extent (they will assume the default CropConfig)")
-    if init is not None and crop_config is not None and init[1]["crop_config"] not in (None, crop_config):
-        diff = sorted(k for k in crop_config if crop_config[k] != init[1]["crop_config"].get(k))
-        raise TrainingError(f"{init_from}: trained on crops made with another CropConfig than the data's "
-                            f"(differs in {diff}); initialise from a checkpoint trained on such crops")
-    split = {
-        "train_episodes": counts["train_episodes"], "val_episodes": counts["val_episodes"],
-        "train_objects": counts["train_objects"], "val_objects": counts["val_objects"],
-        "val_fraction": config.val_fraction, "seed": config.seed,
-    }
-    n_train, n_val = split["train_episodes"], split["val_episodes"]
-    if n_train < 2:
-        raise TrainingError(f"only {n_train} training episodes after the split by object")
-    if n_val == 0:
-        warnings.warn("no validation objects (one object, or val_fraction=0): early stopping uses the "
-                      "training loss", stacklevel=2)
-
-    model = TOGNet(config.arch).to(device)
-    optimizer = torch.optim.Adam(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
-    scheduler = torch.optim.lr_scheduler.ExponentialLR(optimizer, gamma=config.lr_decay)
-    history: list[dict[str, Any]] = []
-    best: dict[str, Any] = {"loss": None, "epoch": 0}
-    bad_epochs = 0
-    start_epoch = 0
-
-    if payload is not None:
-        old: TrainConfig = payload["config_obj"]
-        diff = _config_differences(old, config)
-        if diff:
-            raise CheckpointError(f"{last_path}: config differs from the checkpoint's in {diff}; only "
-                                  f"{list(RESUMABLE_CHANGES)} may change on --resume")
-        if payload["task"] != task:
-            raise CheckpointError(f"{last_path}: trained for task {payload['task']!r}, not {task!r}")
-        if _data_fingerprint(payload["data"]) != _data_fingerprint(data_desc):
-            raise CheckpointError(f"{last_path}: the dataset changed since this run started (shards or "
-                                  "counts differ); start a new run in another --out")
-        if payload.get("training") is None:
-            raise CheckpointError(f"{last_path}: holds no training state; cannot resume")
-        data_desc["init_from"] = payload["data"].get("init_from")
-        model = model_from_checkpoint(payload, last_path).to(device)
-        optimizer = torch.optim.Adam(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
-        scheduler = torch.optim.lr_scheduler.ExponentialLR(optimizer, gamma=config.lr_decay)
-        tr = payload["training"]
-        optimizer.load_state_dict(tr["optimizer"])
-        scheduler.load_state_dict(tr["scheduler"])
-        torch.set_rng_state(tr["rng_torch"].cpu())
-        history = list(tr["history"])
-        best = dict(payload["best"])
-        bad_epochs = int(tr["bad_epochs"])
-        start_epoch = int(payload["epoch"])
-        log(f"resuming {out} after epoch {start_epoch} (best val loss {best.get('loss')})")
-    elif init is not None:
-        init_payload, data_desc["init_from"] = init
-        model = model_from_checkpoint(init_payload, init_from).to(device)  # weights and normalisation
-        optimizer = torch.optim.Adam(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
-        scheduler = torch.optim.lr_scheduler.ExponentialLR(optimizer, gamma=config.lr_decay)
-        log(f"initialised from {init_from} (epoch {init_payload['epoch']}, task {task}): its weights and "
-            "normalisation")
-        out.mkdir(parents=True, exist_ok=True)
-    else:
-        data_desc["init_from"] = None
-        model.set_normalization(_normalization(stream))
-        out.mkdir(parents=True, exist_ok=True)
-    init_info = data_desc["init_from"]
+    data = _open_data(data_dirs, task, config, init, init_from, progress, log)
+    split = data.split
+    state = _start_state(data, task, out, config, device, payload, init, init_from, log)
+    init_info = data.desc["init_from"]
 
     config.save(out / "config.json")
-    (out / "data.json").write_text(json.dumps({**data_desc, "split": split}, indent=2) + "\n")
-    log(f"task {task}: {n_train} training episodes ({split['train_objects']} objects), {n_val} validation "
-        f"({split['val_objects']} objects) in {counts['shards']} shards, device {device}")
+    atomic_write_text(out / "data.json", json.dumps({**data.desc, "split": split}, indent=2) + "\n",
+                      fsync=False)
+    log(f"task {task}: {split['train_episodes']} training episodes ({split['train_objects']} objects), "
+        f"{split['val_episodes']} validation ({split['val_objects']} objects) in {data.counts['shards']} "
+        f"shards, device {device}")
 
-    loss_config = resolve_loss(config.loss, model.action_std)
+    loss_config = resolve_loss(config.loss, state.model.action_std)
     if config.loss.action_sigma_source == "data":
         log("action term's Sigma^(1/2) from the data's successful actions: "
             + ", ".join(f"{v:.3g}" for v in loss_config.action_sigma))
     stopped_early = False
-    n_batches = stream.num_batches("train", config.batch_size)
-    for epoch in range(start_epoch, config.epochs):
-        if bad_epochs >= config.patience:
+    for epoch in range(state.start_epoch, config.epochs):
+        if state.bad_epochs >= config.patience:
             stopped_early = True
             break
-        model.train()
-        sums = {k: 0.0 for k in ("loss", "grasp", "task", "action", "progress")}
-        used = 0
-        t0 = time.perf_counter()
-        bar = tqdm(stream.batches("train", config.batch_size, epoch=epoch), total=n_batches,
-                   desc=f"epoch {epoch + 1}/{config.epochs}", unit="batch", disable=not progress, leave=False,
-                   mininterval=1.0)
-        for batch in bar:
-            if len(batch) < 2:
-                continue  # batch norm cannot train on a single sample (only the epoch's last batch can be)
-            b = batch.to(device)
-            out_b = _forward(model, b)
-            parts = tognet_loss(out_b["q_g_logit"], out_b["q_tg_logit"],
-                                model.denormalize_action(out_b["action_norm"]), b.s_g, b.s_t, b.action,
-                                loss_config, out_b.get("progress_logit"), b.progress)
-            optimizer.zero_grad(set_to_none=True)
-            parts["loss"].backward()
-            optimizer.step()
-            for k in sums:
-                sums[k] += float(parts[k].detach()) * len(b)
-            used += len(b)
-            bar.set_postfix(loss=f"{float(parts['loss'].detach()):.4f}", refresh=False)
-        seconds = time.perf_counter() - t0
-        train_stats = {k: v / max(used, 1) for k, v in sums.items()}
-        train_stats["samples_per_s"] = used / seconds if seconds > 0 else None
-        lr = optimizer.param_groups[0]["lr"]
-        scheduler.step()
-        val_stats = (evaluate(model, stream.batches("val", config.eval_batch_size), config)
-                     if n_val else {"count": 0})
-        monitor = (val_stats.get("classification", train_stats["grasp"] + train_stats["task"])
-                   if config.monitor == "classification" else val_stats.get("loss", train_stats["loss"]))
+        train_stats = _train_epoch(state, data, config, loss_config, epoch, device, progress)
+        seconds = train_stats.pop("seconds")
+        lr = state.optimizer.param_groups[0]["lr"]
+        state.scheduler.step()
+        val_stats = (evaluate(state.model, data.stream.batches("val", config.eval_batch_size), config)
+                     if split["val_episodes"] else {"count": 0})
+        monitor = _monitored(config, train_stats, val_stats)
         record = {"epoch": epoch + 1, "lr": lr, "seconds": seconds, "train": train_stats, "val": val_stats}
-        history.append(record)
+        state.history.append(record)
         if not math.isfinite(monitor):
             raise TrainingError(f"loss is {monitor} at epoch {epoch + 1}; lower the learning rate or check "
                                 "the data (last good state: last.pt)")
-        improved = best["loss"] is None or monitor < best["loss"] - config.min_delta
-        if improved:
-            best = {"loss": float(monitor), "epoch": epoch + 1,
-                    "monitor": ("val" if n_val else "train") + (" classification" if config.monitor ==
-                                                               "classification" else ""),
-                    "val": val_stats}
-            bad_epochs = 0
-        else:
-            bad_epochs += 1
-        common = {"model": model, "config": config, "task": task, "data": data_desc, "split": split,
-                  "epoch": epoch + 1, "best": best, "metrics": record, "crop_config": crop_config}
+        improved = _end_epoch(state, monitor, val_stats, epoch, config, split)
+        common = {"model": state.model, "config": config, "task": task, "data": data.desc, "split": split,
+                  "epoch": epoch + 1, "best": state.best, "metrics": record, "crop_config": data.crop_config}
         if improved:
             save_checkpoint(best_path, **common)
         save_checkpoint(last_path, **common, training={
-            "optimizer": optimizer.state_dict(), "scheduler": scheduler.state_dict(),
-            "rng_torch": torch.get_rng_state(), "history": history, "bad_epochs": bad_epochs,
+            "optimizer": state.optimizer.state_dict(), "scheduler": state.scheduler.state_dict(),
+            "rng_torch": torch.get_rng_state(), "history": state.history, "bad_epochs": state.bad_epochs,
         })
-        _write_metrics(out, history, best, split, task, init_info)
-        m = val_stats.get("metrics", {})
-        log(f"epoch {epoch + 1}: train loss {train_stats['loss']:.4f}, val loss "
-            f"{val_stats.get('loss', float('nan')):.4f}, Q_G AUC {_fmt(m.get('grasp', {}).get('auc'))}, "
-            f"Q_T|G AUC {_fmt(m.get('task_given_grasp', {}).get('auc'))}"
-            f"{' *' if improved else ''} ({train_stats['samples_per_s']:.0f} samples/s)")
-        if bad_epochs >= config.patience and epoch + 1 < config.epochs:
+        _write_metrics(out, state.history, state.best, split, task, init_info)
+        _log_epoch(log, epoch, train_stats, val_stats, improved)
+        if state.bad_epochs >= config.patience and epoch + 1 < config.epochs:
             stopped_early = True
-            log(f"early stop: no better {best['monitor']} loss for {bad_epochs} epochs (best epoch "
-                f"{best['epoch']})")
+            log(f"early stop: no better {state.best['monitor']} loss for {state.bad_epochs} epochs "
+                f"(best epoch {state.best['epoch']})")
             break
-    if history:
-        plot_curves(history, out / "curves.png")
-    _write_metrics(out, history, best, split, task, init_info, stopped_early=stopped_early)
+    if state.history:
+        plot_curves(state.history, out / "curves.png")
+    _write_metrics(out, state.history, state.best, split, task, init_info, stopped_early=stopped_early)
     if not best_path.exists():
         raise TrainingError(f"{out}: no epoch was trained (epochs={config.epochs})")
-    return TrainResult(out=out, best_path=best_path, last_path=last_path, epochs_run=len(history), best=best,
-                       stopped_early=stopped_early, history=history)
+    return TrainResult(out=out, best_path=best_path, last_path=last_path, epochs_run=len(state.history),
+                       best=state.best, stopped_early=stopped_early, history=state.history)
+
+
+def _end_epoch(state: _State, monitor: float, val_stats: dict[str, Any], epoch: int, config: TrainConfig,
+               split: dict[str, Any]) -> bool:
+    """Keep the best epoch and count the epochs without improvement; whether this one improved."""
+    improved = state.best["loss"] is None or monitor < state.best["loss"] - config.min_delta
+    if improved:
+        kind = " classification" if config.monitor == "classification" else ""
+        state.best = {"loss": float(monitor), "epoch": epoch + 1,
+                      "monitor": ("val" if split["val_episodes"] else "train") + kind, "val": val_stats}
+        state.bad_epochs = 0
+    else:
+        state.bad_epochs += 1
+    return improved
+
+
+def _log_epoch(log: Callable[[str], None], epoch: int, train_stats: dict[str, Any], val_stats: dict[str, Any],
+               improved: bool) -> None:
+    m = val_stats.get("metrics", {})
+    log(f"epoch {epoch + 1}: train loss {train_stats['loss']:.4f}, val loss "
+        f"{val_stats.get('loss', float('nan')):.4f}, Q_G AUC {_fmt(m.get('grasp', {}).get('auc'))}, "
+        f"Q_T|G AUC {_fmt(m.get('task_given_grasp', {}).get('auc'))}"
+        f"{' *' if improved else ''} ({train_stats['samples_per_s']:.0f} samples/s)")
 
 
 def _fmt(x: float | None) -> str:
