@@ -321,12 +321,72 @@ def sample_antipodal(
     ``depth`` is a raw image (validated here: holes NaN or 0 are filled, wrong shape/dtype/units raise
     :class:`tognet.geometry.DepthImageError`) or a :class:`DepthScene` from :func:`prepare_depth`.
     An image without any antipodal pair (an empty table) gives an empty :class:`GraspCandidates`.
+
+    The steps: the object's edge points with their outward normals (:func:`_edge_points`), the pairs of
+    them that a parallel-jaw gripper can squeeze (:func:`_antipodal_pairs`), one pair per cell of grasp
+    centre and jaw angle (:func:`_distinct_cells`), and the cells' height and collision checks until
+    enough pass (:func:`_checked_cells`).
     """
     scene = prepare_depth(depth, camera)
-    cam = scene.camera
-    filled = scene.filled
-    h, w = filled.shape
+    edges = _edge_points(scene, config, rng)
+    if edges is None:
+        return GraspCandidates.empty()
+    pairs = _antipodal_pairs(edges, config)
+    if pairs is None:
+        return GraspCandidates.empty()
+    cells, phi_line = _distinct_cells(edges, pairs, config, rng)
+    both = config.axis_direction == "both"
+    m = (config.max_candidates + 1) // 2 if both else config.max_candidates
+    sel, z, ends, width = _checked_cells(scene, edges, pairs, cells, m, config, rng)
+    if sel.size == 0:
+        return GraspCandidates.empty()
 
+    p, i, j = edges.points, pairs.i, pairs.j
+    centre = 0.5 * (ends[:, 0] + ends[:, 1])
+    phi = phi_line[sel]
+    if config.axis_direction == "random":
+        phi = phi + np.pi * (rng.random(sel.size) < 0.5)
+    quality = pairs.quality[sel]
+    top = np.maximum(p[i[sel], 2], p[j[sel], 2])
+    if both:  # each pair as phi and phi + pi, adjacent, so truncation keeps pairs whole
+        k = min(2 * sel.size, config.max_candidates)
+        centre, z, ends, width, quality, top = (
+            np.repeat(a, 2, axis=0)[:k] for a in (centre, z, ends, width, quality, top)
+        )
+        phi = (np.repeat(phi, 2) + np.tile([0.0, np.pi], sel.size))[:k]
+    grasps = np.column_stack([centre, z, np.mod(phi, 2 * np.pi)])
+    uv, zc = scene.camera.project(grasps[:, :3])
+    contacts = np.concatenate([ends, np.broadcast_to(top[:, None, None], ends.shape[:2] + (1,))], axis=2)
+    return GraspCandidates(grasps, zc, uv, width, quality, contacts)
+
+
+@dataclass(frozen=True)
+class _Edges:
+    """Edge points of the object: world positions (M, 3), pixels (u, v) and unit outward normals in the
+    table plane (M, 2)."""
+
+    points: NDArray[np.float64]
+    u: NDArray[np.float64]
+    v: NDArray[np.float64]
+    normals: NDArray[np.float32]
+
+
+@dataclass(frozen=True)
+class _Pairs:
+    """Antipodal pairs of edge points (indices i, j into :class:`_Edges`), with the jaw axis (unit, world
+    xy) from i to j and the antipodality quality."""
+
+    i: NDArray[np.intp]
+    j: NDArray[np.intp]
+    axis: NDArray[np.float64]
+    quality: NDArray[np.float64]
+
+
+def _edge_points(scene: DepthScene, config: AntipodalConfig, rng: np.random.Generator) -> _Edges | None:
+    """The near side of each depth step above the table, with a straight enough outward normal; None when
+    fewer than two are left."""
+    cam, filled = scene.camera, scene.filled
+    h, w = filled.shape
     # Edges are depth steps relative to the table: a tilted camera sees the table's own depth change
     # across the image (2 mm per pixel for a Kinect2 25 degrees from vertical at 1.5 m, about the
     # threshold, and no candidate was left), so the table's depth along each ray is taken off first when
@@ -356,7 +416,7 @@ def sample_antipodal(
         near &= rgx * rgx + rgy * rgy > np.float32(config.depth_grad_thresh**2)
     rows, cols = rows[near], cols[near]
     if rows.size < 2:
-        return GraspCandidates.empty()
+        return None
     if rows.size > config.max_edge_pixels:
         keep = rng.choice(rows.size, size=config.max_edge_pixels, replace=False)
         rows, cols = rows[keep], cols[keep]
@@ -364,7 +424,7 @@ def sample_antipodal(
     straight = coherence >= config.min_normal_coherence
     rows, cols, nu, nv = rows[straight], cols[straight], nu[straight], nv[straight]
     if rows.size < 2:
-        return GraspCandidates.empty()
+        return None
 
     # Contact depth: nearest-to-camera value of the 3x3 neighbourhood (the object's top rim).
     nb = np.stack([filled[rows + dr, cols + dc] for dr in (-1, 0, 1) for dc in (-1, 0, 1)], axis=0)
@@ -377,18 +437,21 @@ def sample_antipodal(
     n_len = np.hypot(n_xy[:, 0], n_xy[:, 1])
     ok = n_len > 1e-9
     if ok.sum() < 2:
-        return GraspCandidates.empty()
-    p, n_xy, n_len = p[ok], n_xy[ok], n_len[ok]
-    u, v = u[ok], v[ok]
-    n_xy = (n_xy / n_len[:, None]).astype(np.float32)
-    pxy = p[:, :2].astype(np.float32)
+        return None
+    return _Edges(p[ok], u[ok], v[ok], (n_xy[ok] / n_len[ok][:, None]).astype(np.float32))
 
+
+def _antipodal_pairs(edges: _Edges, config: AntipodalConfig) -> _Pairs | None:
+    """Pairs of edge points within the gripper's reach whose normals both lie in the friction cone of the
+    line between them (and, with a workspace, centred in it); None when there are none."""
+    p = edges.points
+    pxy = p[:, :2].astype(np.float32)
     pairs = cKDTree(p[:, :2]).query_pairs(config.max_width, output_type="ndarray")
     if pairs.shape[0] == 0:
-        return GraspCandidates.empty()
+        return None
     i, j = pairs[:, 0], pairs[:, 1]
     px, py = pxy[:, 0], pxy[:, 1]
-    nx, ny = n_xy[:, 0].copy(), n_xy[:, 1].copy()
+    nx, ny = edges.normals[:, 0].copy(), edges.normals[:, 1].copy()
     dx = px[j] - px[i]
     dy = py[j] - py[i]
     # Outward normal at i must point away from j (n_i . axis = -1 ideally), at j away from i (+1):
@@ -407,17 +470,22 @@ def sample_antipodal(
         keep &= (mx >= x0) & (mx <= x1) & (my >= y0) & (my <= y1)
     good = np.flatnonzero(keep)
     if good.size == 0:
-        return GraspCandidates.empty()
-    i, j = i[good], j[good]
+        return None
     dist = np.sqrt(d2[good].astype(np.float64))
     axis = np.column_stack([dx[good], dy[good]]).astype(np.float64) / dist[:, None]
     min_cos = np.minimum(a[good], b[good]).astype(np.float64) / dist
     quality = np.clip((min_cos - cos_cone) / max(1.0 - cos_cone, 1e-9), 0.0, 1.0)
+    return _Pairs(i[good], j[good], axis, quality)
 
-    # Distinct cells in (centre pixel, jaw-axis angle mod pi).
+
+def _distinct_cells(edges: _Edges, pairs: _Pairs, config: AntipodalConfig,
+                    rng: np.random.Generator) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+    """One random pair per cell of (centre pixel, jaw-axis angle mod pi), the cells in random order; and
+    every pair's jaw-axis angle mod pi."""
+    u, v, i, j = edges.u, edges.v, pairs.i, pairs.j
     cu = 0.5 * (u[i] + u[j])
     cv = 0.5 * (v[i] + v[j])
-    phi_line = np.mod(np.arctan2(axis[:, 1], axis[:, 0]), np.pi)
+    phi_line = np.mod(np.arctan2(pairs.axis[:, 1], pairs.axis[:, 0]), np.pi)
     sep = max(config.min_pixel_separation, 1e-6)
     n_abin = max(int(np.ceil(np.pi / config.angle_bin)), 1)
     key = (
@@ -426,14 +494,18 @@ def sample_antipodal(
     order = rng.permutation(key.size)
     _, first = np.unique(key[order], return_index=True)
     cells = order[first]
-    cells = cells[rng.permutation(cells.size)]
+    return cells[rng.permutation(cells.size)], phi_line
 
+
+def _checked_cells(scene: DepthScene, edges: _Edges, pairs: _Pairs, cells: NDArray[np.intp], m: int,
+                   config: AntipodalConfig, rng: np.random.Generator) -> tuple[NDArray, ...]:
+    """The first ``m`` cells (in their order) that pass the height and collision checks of
+    :func:`_finalize`: (cells, grasp z, jaw ends, widths)."""
+    p, i, j, axis = edges.points, pairs.i, pairs.j, pairs.axis
     # Evaluate cells in order until enough pass the height / collision checks (vectorised in chunks).
     # Chunk sizes follow the observed acceptance rate (typically 60-80 %), so one chunk usually suffices.
     chosen: list[tuple[NDArray, ...]] = []
     n_have, n_tried, start = 0, 0, 0
-    both = config.axis_direction == "both"
-    m = (config.max_candidates + 1) // 2 if both else config.max_candidates
     while start < cells.size and n_have < m:
         rate = max(n_have / n_tried, 0.2) if n_tried else 0.65
         size = max(int(1.1 * (m - n_have) / rate) + 8, 32)
@@ -443,26 +515,7 @@ def sample_antipodal(
         chosen.append((sel[ok], z[ok], ends[ok], width[ok]))
         n_have += int(ok.sum())
         n_tried += sel.size
-    sel, z, ends, width = (np.concatenate([c[q] for c in chosen])[:m] for q in range(4))
-    if sel.size == 0:
-        return GraspCandidates.empty()
-
-    centre = 0.5 * (ends[:, 0] + ends[:, 1])
-    phi = phi_line[sel]
-    if config.axis_direction == "random":
-        phi = phi + np.pi * (rng.random(sel.size) < 0.5)
-    quality = quality[sel]
-    top = np.maximum(p[i[sel], 2], p[j[sel], 2])
-    if both:  # each pair as phi and phi + pi, adjacent, so truncation keeps pairs whole
-        k = min(2 * sel.size, config.max_candidates)
-        centre, z, ends, width, quality, top = (
-            np.repeat(a, 2, axis=0)[:k] for a in (centre, z, ends, width, quality, top)
-        )
-        phi = (np.repeat(phi, 2) + np.tile([0.0, np.pi], sel.size))[:k]
-    grasps = np.column_stack([centre, z, np.mod(phi, 2 * np.pi)])
-    uv, zc = cam.project(grasps[:, :3])
-    contacts = np.concatenate([ends, np.broadcast_to(top[:, None, None], ends.shape[:2] + (1,))], axis=2)
-    return GraspCandidates(grasps, zc, uv, width, quality, contacts)
+    return tuple(np.concatenate([c[q] for c in chosen])[:m] for q in range(4))
 
 
 def _occupied(scene: DepthScene, points_xy: NDArray, heights: NDArray, tolerance: float) -> NDArray[np.bool_]:
