@@ -38,6 +38,12 @@ TASK_NAMES: tuple[str, ...] = tuple(_REGISTRY)
 DEFAULT_TASK = "hammering"
 
 
+def reference_points() -> str:
+    """What each registered task's reference point is ('sweeping: the cans' mean ...; hammering: ...'), for
+    help texts and plan files."""
+    return "; ".join(f"{name}: {entry.task.reference_point}" for name, entry in _REGISTRY.items())
+
+
 def _entry(name: str) -> TaskEntry:
     if name not in _REGISTRY:
         raise ValueError(f"unknown task '{name}'; known tasks: {', '.join(TASK_NAMES)}")
@@ -78,5 +84,6 @@ __all__ = [
     "TaskProps",
     "get_props",
     "get_task",
+    "reference_points",
     "task_config_class",
 ]
