@@ -140,8 +140,9 @@ class SensorModel(Config):
             filled = np.where(lost, np.float32(np.inf), d)
             step = np.zeros(d.shape, dtype=bool)
             for axis in (0, 1):
-                diff = np.abs(np.diff(filled, axis=axis))
-                jump = ~(diff <= self.edge_step)  # inf - inf is NaN: a hole's border counts as a step
+                with np.errstate(invalid="ignore"):  # inf - inf: a hole's border, a step below
+                    diff = np.abs(np.diff(filled, axis=axis))
+                jump = ~(diff <= self.edge_step)
                 if axis == 0:
                     step[1:] |= jump
                     step[:-1] |= jump
