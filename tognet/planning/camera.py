@@ -249,6 +249,14 @@ class PlaneFitConfig(Config):
         50.0, "Planes whose normal is more than this (degrees) from the viewing direction are not the table."
     )
     min_inliers: float = doc(0.15, "The table must hold at least this fraction of the valid pixels.")
+    level_gap: float = doc(
+        0.05,
+        "A plane parallel to the one holding most pixels (within ``parallel`` degrees), at least this much "
+        "(m) nearer the camera and itself holding ``min_inliers`` of them, is the table: the larger one is "
+        "a floor seen past the table's edge (a camera tilted over it, or far above). The highest such "
+        "level is taken.",
+    )
+    parallel: float = doc(5.0, "Planes whose normals are within this (degrees) are parallel (``level_gap``).")
     seed: int = doc(0, "Seed of the point and hypothesis sampling (the fit is deterministic).")
 
 
@@ -318,7 +326,8 @@ def _grid_points(depth: NDArray[np.float32], k: CameraIntrinsics, n: int) -> NDA
 def fit_table_plane(depth: NDArray[np.float32], intrinsics: CameraIntrinsics,
                     config: PlaneFitConfig | None = None) -> TablePlane:
     """The table plane of a depth image (metres, NaN holes): the plane holding most pixels among those
-    facing the camera within ``max_tilt`` (RANSAC), refined by least squares on its points.
+    facing the camera within ``max_tilt`` (RANSAC), or a parallel one nearer the camera that holds enough
+    of them too (``level_gap``: the table above a floor), refined by least squares on its points.
 
     Raises :class:`TableNotFoundError` when no such plane holds ``min_inliers`` of the valid pixels."""
     cfg = config or PlaneFitConfig()
@@ -342,6 +351,14 @@ def fit_table_plane(depth: NDArray[np.float32], intrinsics: CameraIntrinsics,
         raise TableNotFoundError(f"no plane within {cfg.max_tilt:g} degrees of facing the camera")
     support = np.count_nonzero(np.abs(score @ normals.T + offsets) < cfg.inlier_distance, axis=0)
     best = int(np.argmax(support))
+    # The highest large level parallel to the largest plane: a floor seen past the table's edge can hold
+    # more pixels than the table.
+    above = ((normals @ normals[best] > math.cos(math.radians(cfg.parallel)))
+             & (support >= cfg.min_inliers * len(score)) & (offsets < offsets[best] - cfg.level_gap))
+    if above.any():
+        top = float(offsets[above].min())
+        level = above & (offsets < top + cfg.level_gap)
+        best = int(np.flatnonzero(level)[np.argmax(support[level])])
     n, c = normals[best], float(offsets[best])
     threshold = cfg.inlier_distance
     rms = 0.0
@@ -403,6 +420,12 @@ class SegmentConfig(Config):
         "Holes within this many pixels of an object's measured pixels join them into one region, so that a "
         "dropout across a handle does not cut the tool in two; they never add to its area or height.",
     )
+    core: int = doc(
+        1,
+        "A region must hold a pixel whose neighbours within this many pixels are all measured and above "
+        "the table (a core): range noise alone almost never makes one, so the speckles of a far, noisy "
+        "table are not objects (a 3 x 3 core: 1e-7 per pixel where noise lifts 16 % of them). 0: off.",
+    )
     wall_ratio: float = doc(
         0.25,
         "A region touching the image border whose footprint on the table is thinner than this fraction of "
@@ -459,15 +482,15 @@ def _rejection(cfg: SegmentConfig, area: float, top: float, measured: float, thi
     if measured < cfg.min_measured:
         return (f"mostly unmeasured ({100 * measured:.0f} % of it measured, at least "
                 f"{100 * cfg.min_measured:.0f} % needed)")
+    if border and thickness < cfg.wall_ratio * rise:
+        return (f"a vertical surface at the image's edge ({1000 * thickness:.0f} mm thick seen from above, "
+                f"rising {1000 * rise:.0f} mm): a wall?")
     if top > cfg.max_height:
         return (f"too tall for a tool lying on the table (at most {1000 * cfg.max_height:.0f} mm): a wall, a "
                 "person, or the table seen above the floor?")
     if area > cfg.max_area:
         return (f"larger than anything the gripper picks up (at most {1e4 * cfg.max_area:.0f} cm^2): another "
                 "surface, or the table not flat?")
-    if border and thickness < cfg.wall_ratio * rise:
-        return (f"a vertical surface at the image's edge ({1000 * thickness:.0f} mm thick seen from above, "
-                f"rising {1000 * rise:.0f} mm): a wall?")
     return None
 
 
@@ -481,9 +504,9 @@ def segment_objects(height: NDArray[np.float32], depth: NDArray[np.float32], int
     (NaN holes); ``table_from_camera``: the table frame. A region is 8-connected measured pixels more than
     ``min_height`` above the table, joined across holes at most ``bridge`` pixels from them; its area sums
     its measured pixels' footprints on the table (depth^2 / (fx fy cos(incidence))), and regions under
-    ``min_area`` are left out. A region is rejected (``TableObject.rejected`` says why) when mostly
-    unmeasured, taller than ``max_height``, larger than ``max_area``, or a vertical surface at the image's
-    edge (a wall)."""
+    ``min_area`` or without a ``core`` (noise) are left out. A region is rejected (``TableObject.rejected``
+    says why) when mostly unmeasured, a vertical surface at the image's edge (a wall), taller than
+    ``max_height`` or larger than ``max_area``."""
     cfg = config or SegmentConfig()
     k = intrinsics
     measured = np.isfinite(depth)
@@ -509,6 +532,9 @@ def segment_objects(height: NDArray[np.float32], depth: NDArray[np.float32], int
         unseen = np.bincount(labels[region & ~measured], minlength=count + 1)
     keep = np.flatnonzero(areas >= cfg.min_area)
     keep = keep[keep > 0]
+    if cfg.core > 0 and keep.size:
+        core = ndimage.binary_erosion(above, structure=np.ones((3, 3), dtype=bool), iterations=cfg.core)
+        keep = np.intersect1d(keep, labels[core])
     if keep.size == 0:
         return []
     slices = ndimage.find_objects(labels)
