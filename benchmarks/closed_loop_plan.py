@@ -108,7 +108,10 @@ def _user_trial(sim: Any, task: str, depth: np.ndarray, camera: Any, pose: np.nd
                 "task_success": False, "failure": "no_plan", "plan_s": time.perf_counter() - t0}
     out: dict[str, Any] = {"planned": True, "plan_s": time.perf_counter() - t0, "q_t": plan.grasp.q_t,
                            "objects": len(plan.objects),
-                           "qualifying": sum(o["qualifies"] for o in plan.objects)}
+                           "qualifying": sum(o["qualifies"] for o in plan.objects),
+                           "object": {k: plan.object[k] for k in ("index", "area_cm2", "height_m", "pixel",
+                                                                  "touches_image_border", "why")},
+                           "warnings": plan.warnings}
     truth = plane_from_pose(camera.pose)
     out["table_tilt_error_deg"] = math.degrees(math.acos(min(1.0, float(plan.plane.normal @ truth.normal))))
     out["table_offset_error_m"] = float(plan.plane.offset - truth.offset)

@@ -393,8 +393,16 @@ class SegmentConfig(Config):
     only: a hole (no reading) never makes an object nor adds to one's area or height."""
 
     min_height: float = doc(
-        0.007,
-        "A measured pixel is part of an object when its surface is this much (m) above the table plane.",
+        0.005,
+        "A measured pixel is part of an object when its surface is this much (m) above the table plane (the "
+        "antipodal sampler's ``min_object_height``), or ``noise_sigmas`` times the range noise at its "
+        "depth if that is more.",
+    )
+    noise_sigmas: float = doc(
+        3.0,
+        "The height threshold is at least this many times the range noise at the pixel's depth (measured on "
+        "the table's own pixels, growing with depth squared, see :func:`table_noise`): a far, noisy table "
+        "does not rise into objects.",
     )
     min_area: float = doc(
         4e-4,
@@ -494,24 +502,45 @@ def _rejection(cfg: SegmentConfig, area: float, top: float, measured: float, thi
     return None
 
 
+def table_noise(height: NDArray[np.float32], depth: NDArray[np.float32], band: float = 0.01,
+                samples: int = 4000) -> tuple[float, float]:
+    """(sigma, depth) of the range noise the table's own pixels show: the robust spread (1.4826 x the median
+    absolute deviation) of the heights within ``band`` of the table, on a grid of about ``samples`` of
+    them, and their median depth. (0, 1) when too few are seen."""
+    step = max(1, int(math.sqrt(height.size / max(samples, 1))))
+    h, d = height[::step, ::step].ravel(), depth[::step, ::step].ravel()
+    with np.errstate(invalid="ignore"):
+        on = np.abs(h) < band
+    if np.count_nonzero(on) < 50:
+        return 0.0, 1.0
+    h, d = h[on].astype(np.float64), d[on].astype(np.float64)
+    return 1.4826 * float(np.median(np.abs(h - np.median(h)))), float(np.median(d))
+
+
 def segment_objects(height: NDArray[np.float32], depth: NDArray[np.float32], intrinsics: CameraIntrinsics,
-                    table_from_camera: NDArray[np.float64], config: SegmentConfig | None = None
-                    ) -> list[TableObject]:
+                    table_from_camera: NDArray[np.float64], config: SegmentConfig | None = None,
+                    noise: tuple[float, float] = (0.0, 1.0)) -> list[TableObject]:
     """Every region standing on the table, from measured pixels only: those that look like something a
     gripper picks up first, then the others, each group largest first (``index``: the place in this list).
 
     ``height``: per pixel, m above the table, NaN where nothing was measured; ``depth``: the measured depth
-    (NaN holes); ``table_from_camera``: the table frame. A region is 8-connected measured pixels more than
-    ``min_height`` above the table, joined across holes at most ``bridge`` pixels from them; its area sums
-    its measured pixels' footprints on the table (depth^2 / (fx fy cos(incidence))), and regions under
-    ``min_area`` or without a ``core`` (noise) are left out. A region is rejected (``TableObject.rejected``
-    says why) when mostly unmeasured, a vertical surface at the image's edge (a wall), taller than
-    ``max_height`` or larger than ``max_area``."""
+    (NaN holes); ``table_from_camera``: the table frame; ``noise``: the range noise (sigma, at depth) of
+    :func:`table_noise`. A region is 8-connected measured pixels more than ``min_height`` (or
+    ``noise_sigmas`` x the noise at their depth) above the table, joined across holes at most ``bridge``
+    pixels from them; its area sums its measured pixels' footprints on the table (depth^2 / (fx fy
+    cos(incidence))), and regions under ``min_area`` or without a ``core`` (noise) are left out. A region
+    is rejected (``TableObject.rejected`` says why) when mostly unmeasured, a vertical surface at the
+    image's edge (a wall), taller than ``max_height`` or larger than ``max_area``."""
     cfg = config or SegmentConfig()
     k = intrinsics
     measured = np.isfinite(depth)
+    sigma, at = noise
     with np.errstate(invalid="ignore"):
-        above = height > np.float32(cfg.min_height)
+        if cfg.noise_sigmas * sigma * (np.nanmax(depth) / at) ** 2 > cfg.min_height:
+            scale = np.float32(cfg.noise_sigmas * sigma / at**2)
+            above = height > np.maximum(np.float32(cfg.min_height), scale * depth * depth)
+        else:
+            above = height > np.float32(cfg.min_height)
     if not above.any():
         return []
     region = above

@@ -56,6 +56,7 @@ from tognet.planning.camera import (
     NoObjectError,
     PlaneFitConfig,
     SegmentConfig,
+    TableObject,
     TablePlane,
     check_image_size,
     fit_table_plane,
@@ -65,6 +66,7 @@ from tognet.planning.camera import (
     pick_object,
     plane_from_pose,
     segment_objects,
+    table_noise,
 )
 from tognet.policies.action import PolicyActions
 from tognet.policies.config import PolicyConfig
@@ -354,6 +356,21 @@ def _grasp_frames(table_grasps: NDArray[np.float64], camera_from_table: NDArray[
     return camera_from_table[None] @ gripper
 
 
+def _scene_of(target: TableObject, found: list[TableObject], camera: Camera, plane: TablePlane,
+              valid: NDArray[np.float32], filled: NDArray[np.float32], height: NDArray[np.float32],
+              holes: NDArray[np.bool_], margin: int) -> DepthScene:
+    """The scene the sampler and the crops see for ``target``: every other region replaced by the table."""
+    if len(found) > 1:
+        others = np.zeros_like(target.mask)
+        for obj in found:
+            if obj is not target:
+                others |= obj.mask
+        filled = mask_to_table(filled, others, plane, camera.intrinsics, margin)
+        valid = np.where(np.isfinite(valid), filled, valid).astype(np.float32)
+        height = height_map(filled, camera)
+    return DepthScene(camera, valid, filled, height, holes)
+
+
 class UserPlanner:
     """A loaded TOG-Net for one task, planning on users' depth images (see the module docstring).
 
@@ -432,50 +449,58 @@ class UserPlanner:
         if pose is not None:
             self._check_pose(height[::3, ::3][~holes[::3, ::3]], valid, k, plane)
         t2 = time.perf_counter()
-        found = segment_objects(measured_height, valid, k, table_from_camera, cfg.segment)
+        noise = table_noise(measured_height, valid)
+        found = segment_objects(measured_height, valid, k, table_from_camera, cfg.segment, noise)
         if not found:
             raise NoObjectError(
                 f"no object on the table: no measured surface rises {1000 * cfg.segment.min_height:.0f} mm "
                 f"above the table plane over {1e4 * cfg.segment.min_area:.0f} cm^2 (the table "
                 f"{'from the camera pose' if pose is not None else 'fitted'} {plane.offset:.3f} m below the "
-                f"camera, tilted {plane.tilt:.1f} degrees; {100 * holes.mean():.0f} % of the image "
-                "unmeasured)"
+                f"camera, tilted {plane.tilt:.1f} degrees; range noise {1000 * noise[0]:.1f} mm at "
+                f"{noise[1]:.2f} m; {100 * holes.mean():.0f} % of the image unmeasured)"
             )
         target, why = pick_object(found, object)
         fit = [o for o in found if o.qualifies]
+        # The default choice falls back on the next object that qualifies when the gripper finds no grasp on
+        # it (a block too wide to hold beside a smaller tool).
+        queue = fit if object is None else [target]
         if target.rejected is not None:
             warnings.append(f"object #{target.index} does not look like something to pick up "
                             f"({target.rejected}); planning on it as asked")
-        elif object is None and len(fit) > 1:
-            warnings.append(f"{len(fit)} objects on the table look like something to pick up ("
-                            + "; ".join(o.summary() for o in fit[:4]) + f"): planning on #{target.index}, "
-                            "the largest; choose another with --object INDEX or --object U,V (object= in "
-                            "tognet.plan)")
         rejected = [o for o in found if not o.qualifies and o is not target]
         if rejected:
             warnings.append("not objects to pick up: " + "; ".join(o.summary() for o in rejected[:3])
                             + (f"; and {len(rejected) - 3} more" if len(rejected) > 3 else ""))
-        if len(found) > 1:
-            others = np.zeros_like(target.mask)
-            for obj in found:
-                if obj is not target:
-                    others |= obj.mask
-            filled = mask_to_table(filled, others, plane, k, cfg.segment.mask_margin)
-            valid = np.where(np.isfinite(valid), filled, valid).astype(np.float32)
-            height = height_map(filled, camera)
-        if target.touches_border:
-            warnings.append(f"object #{target.index} touches the image border: part of it may be out of view")
-        scene = DepthScene(camera, valid, filled, height, holes)
         t3 = time.perf_counter()
         rng = np.random.default_rng(cfg.seed if seed is None else seed)
-        cands = sample_antipodal(scene, None, cfg.antipodal, rng)
-        if len(cands) == 0:
+        skipped: list[TableObject] = []
+        for target in queue:
+            scene = _scene_of(target, found, camera, plane, valid, filled, height, holes,
+                              cfg.segment.mask_margin)
+            cands = sample_antipodal(scene, None, cfg.antipodal, rng)
+            if len(cands):
+                break
+            skipped.append(target)
+        else:
+            what = "; ".join(f"#{o.index} ({o.area * 1e4:.0f} cm^2, {1000 * o.height:.0f} mm high, at pixel "
+                             f"({o.pixel[0]:.0f}, {o.pixel[1]:.0f}))" for o in skipped[:4])
+            which = "object " if len(skipped) == 1 else "any object: "
             raise PlanInputError(
-                f"no antipodal grasp candidate on object #{target.index} ({target.area * 1e4:.0f} cm^2, "
-                f"{1000 * target.height:.0f} mm high, at pixel ({target.pixel[0]:.0f}, "
-                f"{target.pixel[1]:.0f})): wider than the gripper's {1000 * cfg.antipodal.max_width:.0f} mm "
-                "opening everywhere, or too flat to hold?"
+                f"no antipodal grasp candidate on {which}{what}: wider than the gripper's "
+                f"{1000 * cfg.antipodal.max_width:.0f} mm opening everywhere, or too flat to hold?"
             )
+        if skipped:
+            why = ("the largest of the objects that look like something to pick up on which the gripper "
+                   f"finds a grasp (none on {', '.join(f'#{o.index}' for o in skipped)})")
+            warnings.append("no antipodal grasp on the larger " + "; ".join(o.summary() for o in skipped)
+                            + f": planning on #{target.index}")
+        if object is None and len(fit) > 1:
+            warnings.append(f"{len(fit)} objects on the table look like something to pick up ("
+                            + "; ".join(o.summary() for o in fit[:4]) + f"): planning on #{target.index}, "
+                            + ("the largest" if not skipped else "the largest with a grasp")
+                            + "; choose another with --object INDEX or --object U,V (object= in tognet.plan)")
+        if target.touches_border:
+            warnings.append(f"object #{target.index} touches the image border: part of it may be out of view")
         t4 = time.perf_counter()
         record: list[NDArray[np.float64]] = []
         view = _UserView(scene, cands, self.task, self.crop, network_height=cfg.network_camera_height,
