@@ -271,3 +271,31 @@ def test_the_overlay_shows_a_tool_on_the_far_half_of_a_tilted_table(sim, planner
     table[:140] = False  # the legend
     inner = tool & ~ndimage.binary_dilation(~tool, iterations=4)
     assert grey[inner].mean() - grey[table].mean() > 80
+
+
+def test_the_table_not_the_floor_that_fills_more_of_the_image():
+    """A wide camera tilted over the table's corner sees more floor than table: the table is the plane."""
+    table = Box((0.0, 0.0, -0.02), (0.61, 0.38, 0.02))
+    camera = Camera.aimed_at(KINECT2, [-0.45, 0.25, 0.0], 1.1, math.radians(30), 2.4, 0.5)
+    depth = render_depth(camera, [table, *t_shape(-0.4, 0.2, yaw=0.3)], table_z=-0.75)
+    from tognet.planning.camera import fit_table_plane
+
+    truth = plane_from_pose(camera.pose)
+    on_floor = np.mean(height_map(depth, camera) < -0.5)
+    assert on_floor > 0.5  # the floor holds most of the image
+    plane = fit_table_plane(depth, KINECT2)
+    assert abs(plane.offset - truth.offset) < 0.002 and plane.inliers < 0.5
+
+
+def test_a_block_too_wide_to_hold_is_passed_over_for_the_smaller_tool(planner):
+    """The largest object has no grasp the gripper can make (a pot 12 cm across, 9 cm high): the plan falls
+    back on the next one and says so."""
+    camera = Camera.aimed_at(REALSENSE, [0.0, 0.0, 0.0], 0.7, math.radians(15), 1.0, 0.0)
+    pot = Cylinder.upright(0.12, 0.05, 0.06, 0.09)
+    small = t_shape(-0.1, -0.02, yaw=0.5, handle=(0.15, 0.02, 0.02), head=(0.03, 0.07, 0.025))
+    plan = planner.plan(render_depth(camera, [pot, *small]), REALSENSE)
+    assert plan.objects[0]["area_cm2"] > plan.object["area_cm2"] and plan.object["index"] == 1
+    assert "none on #0" in plan.object["why"]
+    assert any("no antipodal grasp on the larger" in w for w in plan.warnings)
+    p = camera.pose @ np.linalg.inv(plan.table_from_camera) @ np.array([*plan.grasp.table[:3], 1.0])
+    assert np.hypot(p[0] + 0.1, p[1] + 0.02) < 0.12  # on the small T, not on the block
