@@ -99,7 +99,8 @@ def ray_height_scale(camera: Camera) -> NDArray[np.float32]:
 
 
 def fill_holes_by_height(
-    depth: NDArray[np.float32], holes: NDArray[np.bool_], camera: Camera, max_passes: int = 16
+    depth: NDArray[np.float32], holes: NDArray[np.bool_], camera: Camera, max_passes: int = 16,
+    height: NDArray[np.float32] | None = None,
 ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
     """(filled depth, height map): the holes filled in world height rather than in depth, each from its
     lowest neighbouring surface (:func:`fill_holes` on the negated heights), then put back on its own ray.
@@ -109,12 +110,14 @@ def fill_holes_by_height(
     the rays that kept the edge's depth (by 10 cm at 30 degrees), and a hole at an object's edge still
     takes the table's height, so the object keeps its outline. Holes farther than ``max_passes`` pixels
     from any reading take the table's height (world z = 0: ``camera`` is in the table frame). Rays that
-    (nearly) never descend keep :func:`fill_holes`' depth."""
+    (nearly) never descend keep :func:`fill_holes`' depth. ``height``: the image's heights if already
+    computed (:func:`height_map` of ``depth``, NaN at the holes)."""
     scale = ray_height_scale(camera)
     cz = np.float32(camera.pose[2, 3])
+    if height is None:
+        height = (depth * scale + cz).astype(np.float32)
     if not holes.any():
-        return depth, (depth * scale + cz).astype(np.float32)
-    height = (depth * scale + cz).astype(np.float32)
+        return depth, height
     height = -fill_holes(-height, holes, max_passes, rest=0.0)
     down = scale < np.float32(-0.05)
     with np.errstate(divide="ignore", invalid="ignore"):

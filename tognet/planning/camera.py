@@ -541,28 +541,36 @@ def segment_objects(height: NDArray[np.float32], depth: NDArray[np.float32], int
             above = height > np.maximum(np.float32(cfg.min_height), scale * depth * depth)
         else:
             above = height > np.float32(cfg.min_height)
-    if not above.any():
+    rows_in, cols_in = np.flatnonzero(above.any(axis=1)), np.flatnonzero(above.any(axis=0))
+    if rows_in.size == 0:
         return []
-    region = above
-    if cfg.bridge > 0 and not measured.all():
-        near = ndimage.binary_dilation(above, structure=np.ones((3, 3), dtype=bool), iterations=cfg.bridge)
-        region = above | (near & ~measured)
+    # Everything below works in the box around what rises above the table (and the holes it may bridge).
+    pad = cfg.bridge + 1
+    r0, r1 = max(int(rows_in[0]) - pad, 0), min(int(rows_in[-1]) + pad + 1, k.height)
+    c0, c1 = max(int(cols_in[0]) - pad, 0), min(int(cols_in[-1]) + pad + 1, k.width)
+    box = (slice(r0, r1), slice(c0, c1))
+    up, seen_px = above[box], measured[box]
+    region = up
+    if cfg.bridge > 0 and not seen_px.all():
+        near = ndimage.binary_dilation(up, structure=np.ones((3, 3), dtype=bool), iterations=cfg.bridge)
+        region = up | (near & ~seen_px)
     labels, count = ndimage.label(region, structure=np.ones((3, 3), dtype=bool))
     n = table_from_camera[2, :3]  # row 2 of the rotation: the table's z axis in camera coordinates
-    rows, cols = np.divmod(np.flatnonzero(above), k.width)
+    rows, cols = np.divmod(np.flatnonzero(up), c1 - c0)
+    lab = labels[rows, cols]
+    rows, cols = rows + r0, cols + c0
     z = depth[rows, cols].astype(np.float64)
     xn, yn = (cols - k.cx) / k.fx, (rows - k.cy) / k.fy
     cos_inc = np.maximum(np.abs(n[0] * xn + n[1] * yn + n[2]), 0.05)
-    lab = labels[rows, cols]
     areas = np.bincount(lab, weights=z * z / (k.fx * k.fy) / cos_inc, minlength=count + 1)
     seen = np.bincount(lab, minlength=count + 1)
     unseen = np.zeros_like(seen)
-    if region is not above:  # the holes bridged into each region
-        unseen = np.bincount(labels[region & ~measured], minlength=count + 1)
+    if region is not up:  # the holes bridged into each region
+        unseen = np.bincount(labels[region & ~seen_px], minlength=count + 1)
     keep = np.flatnonzero(areas >= cfg.min_area)
     keep = keep[keep > 0]
     if cfg.core > 0 and keep.size:
-        core = ndimage.binary_erosion(above, structure=np.ones((3, 3), dtype=bool), iterations=cfg.core)
+        core = ndimage.binary_erosion(up, structure=np.ones((3, 3), dtype=bool), iterations=cfg.core)
         keep = np.intersect1d(keep, labels[core])
     if keep.size == 0:
         return []
@@ -571,11 +579,13 @@ def segment_objects(height: NDArray[np.float32], depth: NDArray[np.float32], int
     out = []
     for lab_id in keep:
         sl = slices[lab_id - 1]
-        local = (labels[sl] == lab_id) & above[sl]
-        mask = np.zeros(labels.shape, dtype=bool)
-        mask[sl] = local
+        local = (labels[sl] == lab_id) & up[sl]
+        top_row, left = sl[0].start + r0, sl[1].start + c0
+        bottom, right = sl[0].stop + r0, sl[1].stop + c0
+        mask = np.zeros(above.shape, dtype=bool)
+        mask[top_row:bottom, left:right] = local
         lr, lc = np.nonzero(local)
-        lr, lc = lr + sl[0].start, lc + sl[1].start
+        lr, lc = lr + top_row, lc + left
         zz = depth[lr, lc].astype(np.float64)
         pts = np.column_stack([(lc - k.cx) / k.fx * zz, (lr - k.cy) / k.fy * zz, zz]) @ r.T + t
         hs = height[lr, lc].astype(np.float64)
@@ -585,12 +595,12 @@ def segment_objects(height: NDArray[np.float32], depth: NDArray[np.float32], int
         across = xy @ vecs[:, 0]  # along the footprint's narrow direction
         thickness = float(np.subtract(*np.percentile(across, [95.0, 5.0])))
         centre = np.array([*pts[:, :2].mean(axis=0), 0.0])
-        border = bool(sl[0].start == 0 or sl[1].start == 0 or sl[0].stop == k.height or sl[1].stop == k.width)
+        border = bool(top_row == 0 or left == 0 or bottom == k.height or right == k.width)
         share = float(seen[lab_id] / (seen[lab_id] + unseen[lab_id]))
         area = float(areas[lab_id])
         out.append(TableObject(
             mask, area, float(top), centre, border, share, (float(lc.mean()), float(lr.mean())),
-            (sl[1].start, sl[0].start, sl[1].stop, sl[0].stop),
+            (left, top_row, right, bottom),
             _rejection(cfg, area, float(top), share, thickness, float(top - lo), border)))
     out.sort(key=lambda o: (o.rejected is not None, -o.area))
     return [replace(o, index=i) for i, o in enumerate(out)]

@@ -445,7 +445,7 @@ class UserPlanner:
         camera = Camera(k, table_from_camera)
         holes = ~np.isfinite(valid)
         measured_height = height_map(valid, camera)  # NaN where nothing was measured
-        filled, height = fill_holes_by_height(valid, holes, camera)
+        filled, height = fill_holes_by_height(valid, holes, camera, height=measured_height)
         if pose is not None:
             self._check_pose(height[::3, ::3][~holes[::3, ::3]], valid, k, plane)
         t2 = time.perf_counter()
