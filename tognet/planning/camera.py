@@ -439,18 +439,26 @@ class SegmentConfig(Config):
         "A region touching the image border whose footprint on the table is thinner than this fraction of "
         "its rise is a vertical surface (a wall, a cupboard's side), not an object.",
     )
+    centre_zone: float = doc(
+        1 / 6,
+        "Of the objects that look like something to pick up, the plan is made on the largest of those that "
+        "reach within this fraction of the image's smaller side of its centre (the camera is taken to be "
+        "aimed at the tool: a can or a block beside it is passed over), or else on the one nearest the "
+        "centre.",
+    )
     mask_margin: int = doc(
         2, "Pixels around an object not planned on that are replaced by the table too (its edge, its shadow)."
     )
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class TableObject:
     """One region standing on the table: its measured pixels (``mask``), their area (m^2, seen from above),
     its top (m above the table: the 99th percentile of its heights), centre (table frame, z = 0) and centre
     pixel (u, v), the share of its region measured, its pixel box (u0, v0, u1, v1; exclusive ends), whether
     it touches the image border, ``rejected``: why it does not look like something to pick up (None: it
-    does), and ``index``: its place in :func:`segment_objects`' list."""
+    does), ``index``: its place in :func:`segment_objects`' list, ``centre_distance``: pixels from the
+    image's centre to its nearest pixel and ``central``: whether that is within ``centre_zone``."""
 
     mask: NDArray[np.bool_]
     area: float
@@ -462,6 +470,8 @@ class TableObject:
     box: tuple[int, int, int, int] = (0, 0, 0, 0)
     rejected: str | None = None
     index: int = 0
+    centre_distance: float = 0.0
+    central: bool = True
 
     @property
     def qualifies(self) -> bool:
@@ -480,7 +490,8 @@ class TableObject:
                 "centre_table_m": [round(float(v), 4) for v in self.centre],
                 "pixel": [round(float(v), 1) for v in self.pixel], "box_px": list(self.box),
                 "pixels": int(self.mask.sum()), "measured_share": round(self.measured, 3),
-                "touches_image_border": self.touches_border, "qualifies": self.qualifies,
+                "touches_image_border": self.touches_border,
+                "centre_distance_px": round(self.centre_distance, 1), "qualifies": self.qualifies,
                 "rejected_because": self.rejected}
 
 
@@ -520,8 +531,10 @@ def table_noise(height: NDArray[np.float32], depth: NDArray[np.float32], band: f
 def segment_objects(height: NDArray[np.float32], depth: NDArray[np.float32], intrinsics: CameraIntrinsics,
                     table_from_camera: NDArray[np.float64], config: SegmentConfig | None = None,
                     noise: tuple[float, float] = (0.0, 1.0)) -> list[TableObject]:
-    """Every region standing on the table, from measured pixels only: those that look like something a
-    gripper picks up first, then the others, each group largest first (``index``: the place in this list).
+    """Every region standing on the table, from measured pixels only, in the order a plan would choose
+    them (``index``: the place in this list): first those that look like something a gripper picks up,
+    those reaching within ``centre_zone`` of the image's centre largest first, then the others nearest the
+    centre first; then the rest, largest first.
 
     ``height``: per pixel, m above the table, NaN where nothing was measured; ``depth``: the measured depth
     (NaN holes); ``table_from_camera``: the table frame; ``noise``: the range noise (sigma, at depth) of
@@ -596,21 +609,39 @@ def segment_objects(height: NDArray[np.float32], depth: NDArray[np.float32], int
         thickness = float(np.subtract(*np.percentile(across, [95.0, 5.0])))
         centre = np.array([*pts[:, :2].mean(axis=0), 0.0])
         border = bool(top_row == 0 or left == 0 or bottom == k.height or right == k.width)
+        reach = float(np.min(np.hypot(lc - 0.5 * (k.width - 1), lr - 0.5 * (k.height - 1))))
         share = float(seen[lab_id] / (seen[lab_id] + unseen[lab_id]))
         area = float(areas[lab_id])
         out.append(TableObject(
             mask, area, float(top), centre, border, share, (float(lc.mean()), float(lr.mean())),
             (left, top_row, right, bottom),
-            _rejection(cfg, area, float(top), share, thickness, float(top - lo), border)))
-    out.sort(key=lambda o: (o.rejected is not None, -o.area))
+            _rejection(cfg, area, float(top), share, thickness, float(top - lo), border), 0, reach,
+            reach <= cfg.centre_zone * min(k.width, k.height)))
+    out.sort(key=lambda o: (o.rejected is not None, o.rejected is None and not o.central,
+                            o.centre_distance if o.rejected is None and not o.central else 0.0, -o.area))
     return [replace(o, index=i) for i, o in enumerate(out)]
+
+
+def choice_reason(fit: list[TableObject], first: int = 0) -> str:
+    """Why ``fit[first]`` is planned on, of the objects ``fit`` that look like something to pick up, in
+    :func:`segment_objects`' order."""
+    central = [o for o in fit if o.central]
+    if fit[first].central:
+        if len(central) == 1:
+            return (f"the only one near the image's centre of the {len(fit)} objects that look like "
+                    "something to pick up")
+        return (f"the largest of the {len(central)} objects near the image's centre that look like something "
+                "to pick up" + (" on which the gripper finds a grasp" if first else ""))
+    return (f"the nearest to the image's centre of the {len(fit)} objects that look like something to pick up"
+            + (" on which the gripper finds a grasp" if first else ""))
 
 
 def pick_object(objects: list[TableObject], choice: int | tuple[float, float] | None = None,
                 near: float = 15.0) -> tuple[TableObject, str]:
-    """The object to plan on and why: ``choice`` None: the largest that looks like something to pick up;
-    an int: that index of ``objects``; (u, v): the object at that pixel (or the nearest within ``near``
-    pixels). Raises :class:`NoObjectError` naming what was seen when there is nothing to choose."""
+    """The object to plan on and why: ``choice`` None: the first of :func:`segment_objects`' list that
+    looks like something to pick up (the largest near the image's centre, else the nearest to it); an int:
+    that index of ``objects``; (u, v): the object at that pixel (or the nearest within ``near`` pixels).
+    Raises :class:`NoObjectError` naming what was seen when there is nothing to choose."""
     if choice is None:
         fit = [o for o in objects if o.qualifies]
         if not fit:
@@ -619,7 +650,7 @@ def pick_object(objects: list[TableObject], choice: int | tuple[float, float] | 
                                 + (f"; and {len(objects) - 4} more" if len(objects) > 4 else ""))
         if len(fit) == 1:
             return fit[0], "the only object that looks like something to pick up"
-        return fit[0], f"the largest of the {len(fit)} objects that look like something to pick up"
+        return fit[0], choice_reason(fit)
     if isinstance(choice, int | np.integer) and not isinstance(choice, bool):
         i = int(choice)
         if not 0 <= i < len(objects):

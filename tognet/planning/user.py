@@ -59,6 +59,7 @@ from tognet.planning.camera import (
     TableObject,
     TablePlane,
     check_image_size,
+    choice_reason,
     fit_table_plane,
     load_camera_pose,
     load_intrinsics,
@@ -490,15 +491,15 @@ class UserPlanner:
                 f"{1000 * cfg.antipodal.max_width:.0f} mm opening everywhere, or too flat to hold?"
             )
         if skipped:
-            why = ("the largest of the objects that look like something to pick up on which the gripper "
-                   f"finds a grasp (none on {', '.join(f'#{o.index}' for o in skipped)})")
-            warnings.append("no antipodal grasp on the larger " + "; ".join(o.summary() for o in skipped)
+            why = (choice_reason(fit, fit.index(target))
+                   + f" (none on {', '.join(f'#{o.index}' for o in skipped)})")
+            warnings.append("no antipodal grasp on " + "; ".join(o.summary() for o in skipped)
                             + f": planning on #{target.index}")
         if object is None and len(fit) > 1:
             warnings.append(f"{len(fit)} objects on the table look like something to pick up ("
                             + "; ".join(o.summary() for o in fit[:4]) + f"): planning on #{target.index}, "
-                            + ("the largest" if not skipped else "the largest with a grasp")
-                            + "; choose another with --object INDEX or --object U,V (object= in tognet.plan)")
+                            + why + "; choose another with --object INDEX or --object U,V (object= in "
+                            "tognet.plan)")
         if target.touches_border:
             warnings.append(f"object #{target.index} touches the image border: part of it may be out of view")
         t4 = time.perf_counter()
