@@ -70,8 +70,8 @@ def plan_cmd(
         "world frame with --camera-pose, else table frame: the start pose is then given absolutely too."),
     object_: str | None = typer.Option(
         None, "--object", metavar="INDEX|U,V", help="The object to plan on, when the image shows several: "
-        "its index in the plan's list of objects, or a pixel U,V on it. Default: the largest that looks "
-        "like something to pick up."),
+        "its index in the plan's list of objects, or a pixel U,V on it. Default: the largest near the "
+        "image's centre that looks like something to pick up."),
     seed: int = typer.Option(0, "--seed", help="Seed of the sampler and the search."),
     config: Path | None = typer.Option(None, "--config", help="UserPlanConfig JSON (defaults otherwise)."),
 ) -> None:

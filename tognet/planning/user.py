@@ -18,8 +18,9 @@ Stages (each timed in ``plan.timing``):
 3. **objects**: what stands on the table, from measured pixels only (a hole never makes or enlarges an
    object; :func:`tognet.planning.camera.segment_objects`), each judged on whether it looks like something
    a gripper picks up (size, height, share measured, not a wall). The plan is made on the largest that
-   does, or on the one the caller names (``object``: index or pixel); every other is replaced by the
-   table. Nothing to choose is an error that lists what was seen.
+   does near the image's centre (else the nearest to it; the next one when the gripper finds no grasp on
+   it), or on the one the caller names (``object``: index or pixel); every other is replaced by the table.
+   Nothing to choose is an error that lists what was seen.
 4. **candidates**: antipodal candidates (:func:`tognet.grasping.sample_antipodal`, both jaw orientations).
 5. **grasp**: the cross-entropy method on Q_T = Q_T|G * Q_G (:class:`tognet.policies.grasp.CEMGrasp`, as the
    TOG-Net planner of the evaluation and the collection's greedy rounds), every evaluated grasp kept.
@@ -433,8 +434,9 @@ class UserPlanner:
         metres or integer millimetres); ``intrinsics``: a file, dict or CameraIntrinsics; ``camera_pose``:
         None, a file or a 4 x 4 world_from_camera; ``reference``: the task's reference point (world frame
         with a camera pose, else table frame) for the absolute start pose; ``object``: the object to plan
-        on, its index in ``UserPlan.objects`` or a pixel (u, v) on it (default: the largest that looks like
-        something to pick up)."""
+        on, its index in ``UserPlan.objects`` or a pixel (u, v) on it (default: the first of that list that
+        looks like something to pick up and on which the gripper finds a grasp: the largest near the image's
+        centre, else the nearest to it)."""
         cfg = self.config
         timing: dict[str, float] = {}
         warnings: list[str] = []
