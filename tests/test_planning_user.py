@@ -237,7 +237,9 @@ def test_several_objects_plan_on_the_largest_and_say_so(planner):
               Box.on_table(-0.15, -0.15, (0.05, 0.03, 0.02))]
     plan = planner.plan(render_depth(camera, shapes), camera.intrinsics, camera.pose)
     assert len(plan.objects) == 3
-    assert any("3 objects on the table" in w and "planning on the largest" in w for w in plan.warnings)
+    assert any("3 objects on the table" in w and "planning on #0, the only one near the image's centre" in w
+               for w in plan.warnings)
+    assert plan.object["index"] == 0 and "of the 3 objects" in plan.object["why"]
     for g in [plan.grasp, *plan.alternatives]:
         assert np.hypot(g.world[0] - 0.1, g.world[1]) < 0.2  # on the T, not on a box
 

@@ -75,6 +75,25 @@ class Camera:
         rotation = np.stack([x_axis, y_axis, z_axis], axis=1)
         return cls(intrinsics, make_pose(rotation, position))
 
+    @classmethod
+    def aimed_at(
+        cls, intrinsics: CameraIntrinsics, target: ArrayLike, distance: float, tilt: float = 0.0,
+        azimuth: float = 0.0, roll: float = 0.0,
+    ) -> Camera:
+        """A camera ``distance`` m from the world point ``target``, its optical axis through it and ``tilt``
+        rad from straight down, set back from the target towards ``azimuth`` (the direction, in the world's
+        xy plane, from the target to the point below the camera), rolled by ``roll`` about its axis (0:
+        image x horizontal, at right angles to the azimuth)."""
+        st, ct = np.sin(tilt), np.cos(tilt)
+        ca, sa = np.cos(azimuth), np.sin(azimuth)
+        z_axis = np.array([-st * ca, -st * sa, -ct])
+        x0 = np.array([-sa, ca, 0.0])
+        y0 = np.cross(z_axis, x0)
+        cr, sr = np.cos(roll), np.sin(roll)
+        x_axis, y_axis = cr * x0 + sr * y0, -sr * x0 + cr * y0
+        position = np.asarray(target, dtype=np.float64).reshape(3) - distance * z_axis
+        return cls(intrinsics, make_pose(np.stack([x_axis, y_axis, z_axis], axis=1), position))
+
     @property
     def position(self) -> NDArray[np.float64]:
         """Camera centre in the world frame."""

@@ -16,9 +16,24 @@ from tognet.grasping.depth import DepthScene
 from tognet.grasping.nms import NMSConfig, nms
 
 
-def depth_to_rgb(depth: NDArray[np.float32]) -> NDArray[np.uint8]:
-    """Grey-scale rendering (near = bright) of a depth image; holes are dark red."""
+def depth_to_rgb(depth: NDArray[np.float32], table: NDArray[np.float32] | None = None,
+                 span: float = 0.05) -> NDArray[np.uint8]:
+    """Grey-scale rendering (near = bright) of a depth image; holes are dark red.
+
+    ``table``: the table's depth along every pixel's ray (the plane's, see
+    :meth:`tognet.planning.camera.TablePlane.depth_of_rays`): the grey then shows how far in front of the
+    table each surface is, from black (the table) to white (``span`` m or more), whatever the camera's tilt
+    (a global scale lets a tool on the far half of a tilted table fade into it); surfaces more than 2 cm
+    behind the table (a floor past its edge) are dark blue."""
     valid = np.isfinite(depth)
+    if table is not None:
+        rel = np.asarray(table, dtype=np.float64) - np.where(valid, depth, np.nan)
+        grey = np.clip(np.nan_to_num(rel, nan=0.0) / max(span, 1e-6), 0, 1) * 200 + 30
+        rgb = np.repeat(grey[..., None], 3, axis=2).astype(np.uint8)
+        with np.errstate(invalid="ignore"):
+            rgb[valid & (rel < -0.02)] = (0, 20, 90)
+        rgb[~valid] = (90, 0, 0)
+        return rgb
     if valid.any():
         # Near end: the nearest percent; far end: just beyond the median (the table), so that a floor
         # seen past the table's edge does not wash out the objects' few centimetres of relief.

@@ -8,8 +8,26 @@ from pathlib import Path
 import typer
 
 from tognet.cliutil import user_errors
+from tognet.tasks import TASK_NAMES, reference_points
 
 DEPTH_SUFFIXES = (".png", ".npy", ".npz")
+
+
+def parse_object(text: str | None) -> int | tuple[float, float] | None:
+    """``--object``: an index ('2') or a pixel ('320,240'); ValueError naming the option otherwise."""
+    if text is None:
+        return None
+    parts = [p.strip() for p in text.replace(" ", ",").split(",") if p.strip()]
+    try:
+        if len(parts) == 1 and parts[0].lstrip("#").isdigit():
+            return int(parts[0].lstrip("#"))
+        if len(parts) == 2:
+            u, v = float(parts[0]), float(parts[1])
+            if math.isfinite(u) and math.isfinite(v):
+                return (u, v)
+    except ValueError:
+        pass
+    raise ValueError(f"--object takes an object's index (0, 1, ...) or a pixel U,V on it, got '{text}'")
 
 
 def _vec(values: list[float] | tuple[float, ...], digits: int = 4) -> str:
@@ -37,7 +55,7 @@ def plan_cmd(
         "metres with NaN or 0 holes, or integer millimetres)."),
     intrinsics: Path = typer.Option(
         ..., "--intrinsics", help="Intrinsics JSON: width, height, fx, fy, cx, cy (pixels); see the README."),
-    task: str = typer.Option(..., "--task", help="sweeping or hammering."),
+    task: str = typer.Option(..., "--task", help=f"The task: {', '.join(TASK_NAMES)}."),
     camera_pose: Path | None = typer.Option(
         None, "--camera-pose", help="Camera pose JSON {\"world_from_camera\": 4 x 4} in a frame whose z = 0 "
         "is the table top. Without it the table plane is fitted to the image."),
@@ -48,9 +66,12 @@ def plan_cmd(
     overlay: Path | None = typer.Option(None, "--overlay",
                                         help="Draw the plan on the depth image here (.png)."),
     reference: tuple[float, float, float] | None = typer.Option(
-        None, "--reference", metavar="X Y Z", help="The task's reference point (hammering: the peg's centre; "
-        "sweeping: the cans' mean), world frame with --camera-pose, else table frame: the start pose is then "
-        "given absolutely too."),
+        None, "--reference", metavar="X Y Z", help=f"The task's reference point ({reference_points()}), "
+        "world frame with --camera-pose, else table frame: the start pose is then given absolutely too."),
+    object_: str | None = typer.Option(
+        None, "--object", metavar="INDEX|U,V", help="The object to plan on, when the image shows several: "
+        "its index in the plan's list of objects, or a pixel U,V on it. Default: the largest near the "
+        "image's centre that looks like something to pick up."),
     seed: int = typer.Option(0, "--seed", help="Seed of the sampler and the search."),
     config: Path | None = typer.Option(None, "--config", help="UserPlanConfig JSON (defaults otherwise)."),
 ) -> None:
@@ -60,8 +81,8 @@ def plan_cmd(
     """
     from tognet.planning.camera import load_camera_pose, load_intrinsics
     from tognet.planning.user import UserPlanConfig, UserPlanner
-    from tognet.tasks import TASK_NAMES
 
+    choice = parse_object(object_)
     if task not in TASK_NAMES:
         raise ValueError(f"unknown --task '{task}'; known: {', '.join(TASK_NAMES)}")
     _check_output(out, ".json", "--out")
@@ -79,7 +100,7 @@ def plan_cmd(
     pose = load_camera_pose(camera_pose) if camera_pose is not None else None
     image, k, pose = UserPlanner.read_inputs(depth, k, pose)  # every input checked before the model loads
     planner = UserPlanner(task, checkpoint, cfg)
-    plan = planner.plan(image, k, pose, reference=reference)
+    plan = planner.plan(image, k, pose, reference=reference, object=choice)
     png = None
     if overlay is not None:
         from tognet.planning.overlay import render_plan
@@ -94,10 +115,11 @@ def plan_cmd(
     fit = f" ({100 * p.inliers:.0f} % of the pixels on it, rms {1000 * p.rms:.1f} mm)" if p.fitted else ""
     typer.echo(f"table: {'fitted to the image' if p.fitted else 'from the camera pose'}, the camera "
                f"{p.offset:.3f} m above it, tilted {p.tilt:.1f} deg{fit}")
-    obj = plan.objects[0]
-    typer.echo(f"object: {obj['area_cm2']:.0f} cm^2, {1000 * obj['height_m']:.0f} mm high, at table "
-               f"({obj['centre_table_m'][0]:.3f}, {obj['centre_table_m'][1]:.3f}) m"
-               + (f" (+ {len(plan.objects) - 1} smaller, ignored)" if len(plan.objects) > 1 else ""))
+    obj = plan.object
+    typer.echo(f"object #{obj['index']} of {len(plan.objects)}: {obj['area_cm2']:.0f} cm^2, "
+               f"{1000 * obj['height_m']:.0f} mm high, at table ({obj['centre_table_m'][0]:.3f}, "
+               f"{obj['centre_table_m'][1]:.3f}) m, pixel ({obj['pixel'][0]:.0f}, {obj['pixel'][1]:.0f}): "
+               f"{obj['why']}")
     typer.echo(f"grasp, table frame: x y z {_vec(g.table[:3])} m, phi {g.table[3]:.4f} rad")
     typer.echo(f"grasp, camera frame: centre {_vec(g.camera_position)} m, "
                f"jaw axis {_vec(g.camera_jaw_axis, 3)}")

@@ -27,7 +27,13 @@ def render_plan(plan: UserPlan, depth: NDArray[np.float32], opening: float = 0.0
         raise ValueError("the plan does not carry its camera intrinsics")
     h, w = depth.shape
     scale = 2 if w <= 800 else 1
-    img = Image.fromarray(depth_to_rgb(depth)).resize((w * scale, h * scale), Image.Resampling.NEAREST)
+    # Grey: how far in front of the table (along each ray), black at the table, white at 1.2 x the object's
+    # top (seen at the tilt): the same contrast anywhere on a tilted table.
+    tilt = np.cos(np.radians(plan.plane.tilt))
+    span = max(1.2 * float(plan.object.get("height_m", 0.04)), 0.02) / max(tilt, 0.5)
+    table = plan.plane.depth_of_rays(camera.intrinsics)
+    img = Image.fromarray(depth_to_rgb(depth, table, span)).resize((w * scale, h * scale),
+                                                                  Image.Resampling.NEAREST)
     draw = ImageDraw.Draw(img)
     font = ImageFont.load_default(size=11 * scale)
     grasps = [plan.grasp, *plan.alternatives]
@@ -55,6 +61,9 @@ def render_plan(plan: UserPlan, depth: NDArray[np.float32], opening: float = 0.0
     p = plan.plane
     lines.append((f"table {'fitted' if p.fitted else 'from the camera pose'}: camera {p.offset:.3f} m above, "
                   f"tilted {p.tilt:.1f} deg", (200, 200, 200)))
+    o = plan.object
+    lines.append((f"object #{o.get('index', 0)} of {len(plan.objects)} at pixel ({o['pixel'][0]:.0f}, "
+                  f"{o['pixel'][1]:.0f}): {o.get('why', '')}", (200, 200, 200)))
     lines.extend((f"warning: {text}", (255, 255, 0)) for text in plan.warnings)
     pad = 3 * scale
     heights = [draw.textbbox((0, 0), t, font=font)[3] + pad for t, _ in lines]

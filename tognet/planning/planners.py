@@ -22,7 +22,7 @@ from tognet.planning.config import PlanConfig
 from tognet.planning.plan import Plan, PlanningError
 from tognet.policies.grasp import NMSGrasps
 from tognet.policies.view import ActionPick, ActionPolicy, GraspPick, GraspPolicy, SceneView
-from tognet.tasks import Task
+from tognet.tasks import TASK_NAMES, Task
 
 
 def _scene_view(observation: Any, task: Task | None, config: PlanConfig, crop: Any,
@@ -94,7 +94,7 @@ class OracleSearch:
 
     def __init__(self, sim: Any, config: PlanConfig) -> None:
         if sim.task is None:
-            raise ValueError("the Oracle plans for a task (sweeping or hammering), not for grasping only")
+            raise ValueError(f"the Oracle plans for a task ({', '.join(TASK_NAMES)}), not for grasping only")
         self.sim = sim
         self.config = config
         self.seed = self.SEARCH_SEED
@@ -171,7 +171,7 @@ class OraclePlanner:
 
     def __init__(self, sim: Any, config: PlanConfig | None = None) -> None:
         if sim.task is None:
-            raise ValueError("the Oracle plans for a task (sweeping or hammering), not for grasping only")
+            raise ValueError(f"the Oracle plans for a task ({', '.join(TASK_NAMES)}), not for grasping only")
         self.sim = sim
         self.config = config or PlanConfig()
         self._last: tuple[tuple[str, int, bytes], Plan] | None = None

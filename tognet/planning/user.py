@@ -12,11 +12,15 @@ Stages (each timed in ``plan.timing``):
    intrinsics and the optional camera pose (:mod:`tognet.planning.camera`), checked against each other.
 2. **table**: the table plane, from the camera pose when given, else fitted to the image (RANSAC + least
    squares), and the table frame every stage works in (z up, origin below the camera, x along the image's
-   x: the plan does not depend on where a user's world frame is). Holes (zeros, NaN) are filled as the
-   sampler's own path does (:func:`tognet.grasping.fill_holes`) and per-pixel heights above the table
-   computed.
-3. **objects**: what stands on the table (connected regions above it); none is an error, several give a
-   warning and the plan is made on the largest (the others are replaced by the table).
+   x: the plan does not depend on where a user's world frame is). Per-pixel heights above the table are
+   computed; holes (zeros, NaN: no reading) are filled in height, each from its lowest neighbouring
+   surface (:func:`tognet.grasping.depth.fill_holes_by_height`), for the sampler and the crops only.
+3. **objects**: what stands on the table, from measured pixels only (a hole never makes or enlarges an
+   object; :func:`tognet.planning.camera.segment_objects`), each judged on whether it looks like something
+   a gripper picks up (size, height, share measured, not a wall). The plan is made on the largest that
+   does near the image's centre (else the nearest to it; the next one when the gripper finds no grasp on
+   it), or on the one the caller names (``object``: index or pixel); every other is replaced by the table.
+   Nothing to choose is an error that lists what was seen.
 4. **candidates**: antipodal candidates (:func:`tognet.grasping.sample_antipodal`, both jaw orientations).
 5. **grasp**: the cross-entropy method on Q_T = Q_T|G * Q_G (:class:`tognet.policies.grasp.CEMGrasp`, as the
    TOG-Net planner of the evaluation and the collection's greedy rounds), every evaluated grasp kept.
@@ -46,27 +50,31 @@ from tognet.errors import TognetError
 from tognet.geometry import Camera, CameraIntrinsics, DepthImageError, validate_depth
 from tognet.grasping.antipodal import AntipodalConfig, sample_antipodal
 from tognet.grasping.crops import CropConfig, extract_crops
-from tognet.grasping.depth import DepthScene, fill_holes, height_map, load_depth_file
+from tognet.grasping.depth import DepthScene, fill_holes_by_height, height_map, load_depth_file
 from tognet.grasping.nms import NMSConfig, angle_difference
 from tognet.io import atomic_write_bytes
 from tognet.planning.camera import (
     NoObjectError,
     PlaneFitConfig,
     SegmentConfig,
+    TableObject,
     TablePlane,
     check_image_size,
+    choice_reason,
     fit_table_plane,
     load_camera_pose,
     load_intrinsics,
     mask_to_table,
+    pick_object,
     plane_from_pose,
     segment_objects,
+    table_noise,
 )
 from tognet.policies.action import PolicyActions
 from tognet.policies.config import PolicyConfig
 from tognet.policies.grasp import CEMGrasp
 from tognet.policies.view import SceneView, check_predictor_crops
-from tognet.tasks import GRASP_ONLY, TASK_NAMES, Task, get_task
+from tognet.tasks import GRASP_ONLY, TASK_NAMES, Task, get_task, reference_points
 
 #: The simulator's nominal camera height above the table (SimConfig().camera.position z), where every
 #: training image was taken from (+-3 cm).
@@ -174,7 +182,10 @@ class UserPlan:
     """A plan on a user's depth image: the chosen grasp and action, alternatives, frames and diagnostics.
 
     ``timing``: seconds per stage (read, table, objects, candidates, grasp, action) and ``total`` (the model's
-    loading is not part of it). ``warnings``: one line each (several objects, low Q_T, ...)."""
+    loading is not part of it). ``warnings``: one line each (several objects, low Q_T, ...). ``objects``:
+    every region seen standing on the table (:meth:`tognet.planning.camera.TableObject.describe`: those
+    that look like something to pick up first, each with its index and, if not, why); ``object``: the one
+    planned on, with ``why`` it was chosen."""
 
     task: str
     grasp: PlannedGrasp
@@ -183,6 +194,7 @@ class UserPlan:
     world_from_camera: NDArray[np.float64] | None
     plane: TablePlane
     objects: list[dict[str, Any]]
+    object: dict[str, Any]
     candidates: int
     evaluated: int
     timing: dict[str, float]
@@ -219,14 +231,15 @@ class UserPlan:
                 "table_from_camera": _rounded(self.table_from_camera, 6),
                 "world_from_camera": None if self.world_from_camera is None
                 else _rounded(self.world_from_camera, 6),
-                "action": "start pose of the task's motion relative to its reference point (hammering: the "
-                          "peg's centre; sweeping: the cans' mean), task frame axes",
+                "action": "start pose of the task's motion relative to its reference point ("
+                          f"{reference_points()}), task frame axes",
             },
             "table_plane": {"source": "fitted" if self.plane.fitted else "camera pose",
                             "camera_height_m": _rounded(self.plane.offset),
                             "tilt_deg": _rounded(self.plane.tilt, 2),
                             "inlier_fraction": _rounded(self.plane.inliers, 3),
                             "rms_m": _rounded(self.plane.rms, 5)},
+            "object": self.object,
             "objects": self.objects,
             "candidates": self.candidates,
             "evaluated": self.evaluated,
@@ -332,6 +345,21 @@ def _grasp_frames(table_grasps: NDArray[np.float64], camera_from_table: NDArray[
     return camera_from_table[None] @ gripper
 
 
+def _scene_of(target: TableObject, found: list[TableObject], camera: Camera, plane: TablePlane,
+              valid: NDArray[np.float32], filled: NDArray[np.float32], height: NDArray[np.float32],
+              holes: NDArray[np.bool_], margin: int) -> DepthScene:
+    """The scene the sampler and the crops see for ``target``: every other region replaced by the table."""
+    if len(found) > 1:
+        others = np.zeros_like(target.mask)
+        for obj in found:
+            if obj is not target:
+                others |= obj.mask
+        filled = mask_to_table(filled, others, plane, camera.intrinsics, margin)
+        valid = np.where(np.isfinite(valid), filled, valid).astype(np.float32)
+        height = height_map(filled, camera)
+    return DepthScene(camera, valid, filled, height, holes)
+
+
 class UserPlanner:
     """A loaded TOG-Net for one task, planning on users' depth images (see the module docstring).
 
@@ -388,11 +416,14 @@ class UserPlanner:
 
     # --- the plan ----------------------------------------------------------------------------------------
     def plan(self, depth: Any, intrinsics: Any, camera_pose: Any = None, reference: ArrayLike | None = None,
-             seed: int | None = None) -> UserPlan:
+             seed: int | None = None, object: int | tuple[float, float] | None = None) -> UserPlan:
         """Plan on one depth image (see the module docstring). ``depth``: a file path or an array (float
         metres or integer millimetres); ``intrinsics``: a file, dict or CameraIntrinsics; ``camera_pose``:
         None, a file or a 4 x 4 world_from_camera; ``reference``: the task's reference point (world frame
-        with a camera pose, else table frame) for the absolute start pose."""
+        with a camera pose, else table frame) for the absolute start pose; ``object``: the object to plan
+        on, its index in ``UserPlan.objects`` or a pixel (u, v) on it (default: the first of that list that
+        looks like something to pick up and on which the gripper finds a grasp: the largest near the image's
+        centre, else the nearest to it)."""
         cfg = self.config
         timing: dict[str, float] = {}
         warnings: list[str] = []
@@ -403,42 +434,63 @@ class UserPlanner:
         table_from_camera = plane.table_from_camera()
         camera = Camera(k, table_from_camera)
         holes = ~np.isfinite(valid)
-        filled = fill_holes(valid, holes)
-        height = height_map(filled, camera)
+        measured_height = height_map(valid, camera)  # NaN where nothing was measured
+        filled, height = fill_holes_by_height(valid, holes, camera, height=measured_height)
         if pose is not None:
             self._check_pose(height[::3, ::3][~holes[::3, ::3]], valid, k, plane)
         t2 = time.perf_counter()
-        found = segment_objects(height, filled, k, table_from_camera, cfg.segment)
+        noise = table_noise(measured_height, valid)
+        found = segment_objects(measured_height, valid, k, table_from_camera, cfg.segment, noise)
         if not found:
             raise NoObjectError(
-                f"no object on the table: nothing rises {1000 * cfg.segment.min_height:.0f} mm above the "
-                f"table plane over {1e4 * cfg.segment.min_area:.0f} cm^2 (the table "
+                f"no object on the table: no measured surface rises {1000 * cfg.segment.min_height:.0f} mm "
+                f"above the table plane over {1e4 * cfg.segment.min_area:.0f} cm^2 (the table "
                 f"{'from the camera pose' if pose is not None else 'fitted'} {plane.offset:.3f} m below the "
-                f"camera, tilted {plane.tilt:.1f} degrees)"
+                f"camera, tilted {plane.tilt:.1f} degrees; range noise {1000 * noise[0]:.1f} mm at "
+                f"{noise[1]:.2f} m; {100 * holes.mean():.0f} % of the image unmeasured)"
             )
-        if len(found) > 1:
-            others = np.zeros_like(found[0].mask)
-            for obj in found[1:]:
-                others |= obj.mask
-            filled = mask_to_table(filled, others, plane, k, cfg.segment.mask_margin)
-            valid = np.where(np.isfinite(valid), filled, valid).astype(np.float32)
-            height = height_map(filled, camera)
-            areas = ", ".join(f"{o.area * 1e4:.0f}" for o in found)
-            warnings.append(f"{len(found)} objects on the table (areas {areas} cm^2): planning on the "
-                            f"largest, at table ({found[0].centre[0]:.3f}, {found[0].centre[1]:.3f}); the "
-                            "others are ignored")
-        if found[0].touches_border:
-            warnings.append("the object touches the image border: part of it may be out of view")
-        scene = DepthScene(camera, valid, filled, height, holes)
+        target, why = pick_object(found, object)
+        fit = [o for o in found if o.qualifies]
+        # The default choice falls back on the next object that qualifies when the gripper finds no grasp on
+        # it (a block too wide to hold beside a smaller tool).
+        queue = fit if object is None else [target]
+        if target.rejected is not None:
+            warnings.append(f"object #{target.index} does not look like something to pick up "
+                            f"({target.rejected}); planning on it as asked")
+        rejected = [o for o in found if not o.qualifies and o is not target]
+        if rejected:
+            warnings.append("not objects to pick up: " + "; ".join(o.summary() for o in rejected[:3])
+                            + (f"; and {len(rejected) - 3} more" if len(rejected) > 3 else ""))
         t3 = time.perf_counter()
         rng = np.random.default_rng(cfg.seed if seed is None else seed)
-        cands = sample_antipodal(scene, None, cfg.antipodal, rng)
-        if len(cands) == 0:
+        skipped: list[TableObject] = []
+        for target in queue:
+            scene = _scene_of(target, found, camera, plane, valid, filled, height, holes,
+                              cfg.segment.mask_margin)
+            cands = sample_antipodal(scene, None, cfg.antipodal, rng)
+            if len(cands):
+                break
+            skipped.append(target)
+        else:
+            what = "; ".join(f"#{o.index} ({o.area * 1e4:.0f} cm^2, {1000 * o.height:.0f} mm high, at pixel "
+                             f"({o.pixel[0]:.0f}, {o.pixel[1]:.0f}))" for o in skipped[:4])
+            which = "object " if len(skipped) == 1 else "any object: "
             raise PlanInputError(
-                f"no antipodal grasp candidate on the object (area {found[0].area * 1e4:.0f} cm^2, "
-                f"{1000 * found[0].height:.0f} mm high): wider than the gripper's "
+                f"no antipodal grasp candidate on {which}{what}: wider than the gripper's "
                 f"{1000 * cfg.antipodal.max_width:.0f} mm opening everywhere, or too flat to hold?"
             )
+        if skipped:
+            why = (choice_reason(fit, fit.index(target))
+                   + f" (none on {', '.join(f'#{o.index}' for o in skipped)})")
+            warnings.append("no antipodal grasp on " + "; ".join(o.summary() for o in skipped)
+                            + f": planning on #{target.index}")
+        if object is None and len(fit) > 1:
+            warnings.append(f"{len(fit)} objects on the table look like something to pick up ("
+                            + "; ".join(o.summary() for o in fit[:4]) + f"): planning on #{target.index}, "
+                            + why + "; choose another with --object INDEX or --object U,V (object= in "
+                            "tognet.plan)")
+        if target.touches_border:
+            warnings.append(f"object #{target.index} touches the image border: part of it may be out of view")
         t4 = time.perf_counter()
         record: list[NDArray[np.float64]] = []
         view = _UserView(scene, cands, self.task, self.crop, network_height=cfg.network_camera_height,
@@ -483,7 +535,8 @@ class UserPlanner:
                       action=t6 - t5, total=time.perf_counter() - t0)
         return UserPlan(
             task=self.task_name, grasp=out[0], alternatives=out[1:], table_from_camera=table_from_camera,
-            world_from_camera=pose, plane=plane, objects=[o.describe() for o in found], candidates=len(cands),
+            world_from_camera=pose, plane=plane, objects=[o.describe() for o in found],
+            object={**target.describe(), "why": why}, candidates=len(cands),
             evaluated=len(grasps), timing=timing, warnings=warnings, checkpoint=self.checkpoint,
             seed=cfg.seed if seed is None else seed, intrinsics=k,
         )
@@ -519,13 +572,15 @@ _PLANNERS: dict[tuple[str, str, str], UserPlanner] = {}
 
 def plan_image(depth: Any, intrinsics: Any, task: str, camera_pose: Any = None, checkpoint: Any = None,
                *, reference: ArrayLike | None = None, top: int | None = None, seed: int | None = None,
-               config: UserPlanConfig | None = None) -> UserPlan:
+               config: UserPlanConfig | None = None, object: int | tuple[float, float] | None = None
+               ) -> UserPlan:
     """Plan a task-oriented grasp and motion on a depth image in one call (``tognet.plan``).
 
     ``depth``: a .png/.npy/.npz path or an array; ``intrinsics``: a JSON path, dict or CameraIntrinsics;
     ``camera_pose``: None (the table plane is fitted), a JSON path or a 4 x 4 world_from_camera;
-    ``checkpoint``: a path or loaded predictor (default: the shipped model of ``task``). The model loaded
-    from a path is kept for the next call with the same path and settings."""
+    ``checkpoint``: a path or loaded predictor (default: the shipped model of ``task``); ``object``: the
+    object to plan on, by index or pixel (see :meth:`UserPlanner.plan`). The model loaded from a path is
+    kept for the next call with the same path and settings."""
     cfg = config or UserPlanConfig()
     if top is not None:
         cfg = cfg.replace(top=top)
@@ -536,4 +591,4 @@ def plan_image(depth: Any, intrinsics: Any, task: str, camera_pose: Any = None, 
             planner = _PLANNERS[key] = UserPlanner(task, checkpoint, cfg)
     else:
         planner = UserPlanner(task, checkpoint, cfg)
-    return planner.plan(depth, intrinsics, camera_pose, reference=reference, seed=seed)
+    return planner.plan(depth, intrinsics, camera_pose, reference=reference, seed=seed, object=object)

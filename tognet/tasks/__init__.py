@@ -45,6 +45,12 @@ GRASP_ONLY = "grasping"
 SIM_TASKS: tuple[str, ...] = (*TASK_NAMES, GRASP_ONLY)
 
 
+def reference_points() -> str:
+    """What each registered task's reference point is ('sweeping: the cans' mean ...; hammering: ...'), for
+    help texts and plan files."""
+    return "; ".join(f"{name}: {entry.task.reference_point}" for name, entry in _REGISTRY.items())
+
+
 def _entry(name: str) -> TaskEntry:
     if name not in _REGISTRY:
         raise ValueError(f"unknown task '{name}'; known tasks: {', '.join(TASK_NAMES)}")
@@ -95,5 +101,6 @@ __all__ = [
     "get_props",
     "get_task",
     "headline_subset",
+    "reference_points",
     "task_config_class",
 ]

@@ -76,6 +76,8 @@ class Task:
     methods."""
 
     name: str = ""
+    #: What the task's reference point is, in a few words (help texts: ``tognet plan --reference``).
+    reference_point: str = ""
     #: The task's config class (a section of ``SimConfig`` named after the task); its defaults when none
     #: is given.
     config_class: type = object

@@ -98,6 +98,7 @@ class Hammering(Task):
     """Hammer the peg into the slot (see the module docstring)."""
 
     name = "hammering"
+    reference_point = "the peg's centre"
     config: HammeringConfig
     config_class = HammeringConfig
 

@@ -95,6 +95,7 @@ class Pulling(Task):
     """Pull the can back within reach (see the module docstring)."""
 
     name = "pulling"
+    reference_point = "the can's centre at mid-height"
     config: PullingConfig
     config_class = PullingConfig
 

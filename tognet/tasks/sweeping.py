@@ -101,6 +101,7 @@ class Sweeping(Task):
     """Sweep the cans off the table (see the module docstring)."""
 
     name = "sweeping"
+    reference_point = "the cans' mean position at their mid-height"
     config: SweepingConfig
     config_class = SweepingConfig
     subsets = (SceneSubset("mix", "the paper's mix: one or two cans"),
