@@ -22,6 +22,7 @@ from tognet.collect.config import CollectConfig, RoundConfig, load_preset
 from tognet.collect.rounds import collect_round
 from tognet.jobs.workers import Executor, LocalExecutor
 from tognet.objects import generate_set
+from tognet.tasks import DEFAULT_TASK, SIM_TASKS
 
 
 def timed_round(executor: Executor, task: str, objects: list, episodes: int, cfg: CollectConfig, out: Path,
@@ -35,7 +36,7 @@ def timed_round(executor: Executor, task: str, objects: list, episodes: int, cfg
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--task", default="hammering", choices=["hammering", "sweeping", "grasping"])
+    ap.add_argument("--task", default=DEFAULT_TASK, choices=SIM_TASKS)
     ap.add_argument("--episodes", type=int, default=1200, help="Episodes per timed round.")
     ap.add_argument("--objects", type=int, default=24, help="PG-Primitive objects.")
     ap.add_argument("--repeats", type=int, default=2, help="Timed rounds per executor (alternating).")

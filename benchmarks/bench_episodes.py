@@ -32,8 +32,7 @@ from tognet.config import ConfigError
 from tognet.objects.generate import generate_set
 from tognet.objects.handmade import grasp_on_object, make_test_tools
 from tognet.sim import SimConfig, Simulator
-from tognet.tasks.hammering_props import HAMMER_GRASPS, hammer_action
-from tognet.tasks.sweeping_props import SWEEP_GRASPS, sweep_action
+from tognet.tasks import TASK_NAMES, get_props, get_task
 
 _REFERENCE_XML = """
 <mujoco>
@@ -75,18 +74,20 @@ def reference_workload() -> dict:
 
 
 def _plan(sim: Simulator, i: int) -> tuple:
+    """The task's scripted grasp and hand-computed action on its own hand-made tool (the one its scripted
+    checks use, ``TaskProps.demo_grasp``); the default grasp and a random action on any other object."""
     pos, rot = sim.object_pose()
-    if sim.obj.object_id == "t_hammer":
-        return grasp_on_object(pos, rot, *HAMMER_GRASPS["far_end"][:2]), hammer_action(sim, "far_end")
-    if sim.obj.object_id == "l_tool":
-        return grasp_on_object(pos, rot, *SWEEP_GRASPS["short_end"]), sweep_action(sim, "short_end")
+    props = sim.props
+    if sim.obj.object_id == props.check_object and props.demo_grasp:
+        point, jaw = props.check_grasps[props.demo_grasp][:2]
+        return grasp_on_object(pos, rot, point, jaw), props.check_action(props.demo_grasp)
     assert sim.task is not None
     return sim.default_grasp(), sim.task.random_action(np.random.default_rng(i))
 
 
 def episode_records(task: str, tools: dict, prims: list) -> list:
     """The benchmark's object mix for ``task``: its hand-made tool twice, then the PG-Primitive objects."""
-    tool = tools[{"hammering": "t_hammer", "sweeping": "l_tool"}[task]]
+    tool = tools[get_props(get_task(task)).check_object]
     return [tool, tool, *prims]
 
 
@@ -146,7 +147,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--episodes", type=int, default=60, help="episodes per task and repeat")
     parser.add_argument("--repeats", type=int, default=3, help="runs of the same seeded episodes")
-    parser.add_argument("--tasks", nargs="+", default=["hammering", "sweeping"], help="tasks to time")
+    parser.add_argument("--tasks", nargs="+", default=list(TASK_NAMES), choices=TASK_NAMES,
+                        help="tasks to time (default: every registered task)")
     parser.add_argument("--config", type=Path, help="SimConfig JSON to time instead of the defaults")
     args = parser.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")

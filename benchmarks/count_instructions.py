@@ -23,6 +23,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from tognet.tasks import TASK_NAMES
+
 
 def _worker(task: str, episodes: int, config: Path | None) -> None:
     """Build the simulators, then run ``episodes`` episodes (the part the parent counts)."""
@@ -68,7 +70,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--episodes", type=int, default=12, help="episodes counted per task")
     parser.add_argument(
-        "--tasks", nargs="+", default=["hammering", "sweeping"], choices=["hammering", "sweeping"],
+        "--tasks", nargs="+", default=list(TASK_NAMES), choices=TASK_NAMES,
         help="tasks to count",
     )  # fmt: skip
     parser.add_argument("--config", type=Path, help="SimConfig JSON to count instead of the defaults")

@@ -31,8 +31,9 @@ from scipy.spatial import ConvexHull
 from tognet.grasping import AntipodalConfig, CropConfig, NMSConfig, nms, prepare_depth, sample_antipodal
 from tognet.objects import generate_set
 from tognet.sim import SimConfig, Simulator
+from tognet.tasks import TASK_NAMES
 
-TASKS = ("hammering", "sweeping")
+TASKS = TASK_NAMES  # every registered task
 EXTENTS = (0.384, 0.45, 0.5, 0.55, 0.6, 0.64, 0.7, 0.768)
 PERCENTILES = (50, 75, 90, 95, 99)
 

@@ -30,8 +30,9 @@ from tognet.geometry import Grasp
 from tognet.grasping import AntipodalConfig, NMSConfig, nms, prepare_depth, sample_antipodal
 from tognet.objects.generate import generate_set
 from tognet.sim import SimConfig, Simulator
+from tognet.tasks import TASK_NAMES
 
-TASKS = ("sweeping", "hammering")
+TASKS = TASK_NAMES  # every registered task
 
 
 def _trial(sim: Simulator, grasp: list[float], action: list[float], seed: int) -> dict[str, Any]:
@@ -88,7 +89,7 @@ def compare(path: Path, tmp: str, cfg: SimConfig) -> None:
     sims: dict[tuple[str, int], Simulator] = {}
     stats: dict[str, dict[str, Any]] = {
         t: {"n": 0, "sg": 0, "st": 0, "all": 0, "pose": [], "hand": [], "start": [], "flips": []}
-        for t in TASKS
+        for t in dict.fromkeys(ep["task"] for ep in saved["episodes"])  # the tasks recorded
     }
     t0 = time.perf_counter()
     for ep in saved["episodes"]:
