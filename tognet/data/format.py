@@ -17,13 +17,15 @@ from typing import Any
 import numpy as np
 
 from tognet.errors import TognetError
+from tognet.grasping.crops import CropConfig
 from tognet.tasks.base import FailureReason
 
 #: Version of the shard/manifest layout; bump on any incompatible change.
 FORMAT_VERSION = 3
 #: Versions this code reads (older shards get the new fields' defaults).
 READABLE_VERSIONS = (1, 2, 3)
-CROP_SIZE = 64
+#: Side of a stored crop, pixels: the default CropConfig's (the one place the crop size is set).
+CROP_SIZE = CropConfig().size
 MANIFEST = "manifest.json"
 SHARD_PATTERN = re.compile(r"^shard-(\d{5,})\.npz$")
 

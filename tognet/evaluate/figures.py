@@ -176,11 +176,9 @@ def qualitative_figure(objects: Sequence[ObjectRecord], models: dict[str, Any], 
                ((GRASP_ONLY, "task-agnostic (Q_G)"), *((t, f"{t} (Q_T)") for t in TASK_NAMES)) if n in models]
     if not columns or not objects:
         return None
-    crop = next((m.crop_config for m in models.values() if getattr(m, "crop_config", None) is not None), None)
-    if crop is None:
-        from tognet.grasping.crops import CropConfig
+    from tognet.grasping.crops import resolve_crop
 
-        crop = CropConfig()
+    crop = resolve_crop(models.values())
     rows = []
     for obj in objects:
         try:

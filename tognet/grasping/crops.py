@@ -20,10 +20,11 @@ outside the image read the table height.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
-import torch
 from numpy.typing import NDArray
 
 from tognet.config import Config, doc
@@ -118,6 +119,8 @@ def extract_crops(
         rows = maps[:, c, 0, None, None] + ar[None, :, None] * maps[:, c, 1, None, None]
         np.add(rows, ar[None, None, :] * maps[:, c, 2, None, None], out=grid[..., c])
         np.multiply(grid[..., c], w, out=grid[..., c])
+    import torch  # here, not at the top: the configs and the shard format import this module
+
     height = scene.height if config.table_z == 0.0 else scene.height - np.float32(config.table_z)
     sampled = (
         torch.nn.functional.grid_sample(
@@ -135,6 +138,36 @@ def extract_crops(
     if config.max_value is not None:
         np.minimum(out, np.float32(config.max_value), out=out)
     return out
+
+
+def trained_crop(model: Any) -> CropConfig | None:
+    """The CropConfig a model's training crops were made with (its checkpoint says), or None when it does
+    not say (an untrained network, a checkpoint from before crops were saved)."""
+    crop = getattr(model, "crop_config", None)
+    return crop if isinstance(crop, CropConfig) else None
+
+
+def resolve_crop(models: Iterable[Any], given: CropConfig | None = None) -> CropConfig:
+    """The one CropConfig to make crops with for ``models`` (predictors; None entries are skipped):
+    ``given``, else the first model's training crops, else the default with the first model's network
+    sizes. Raises ValueError, naming the fields, when a model was trained on crops made otherwise."""
+    models = [m for m in models if m is not None]
+    known = [c for c in map(trained_crop, models) if c is not None]
+    crop = given or (known[0] if known else None)
+    if crop is None:
+        arch = next((m.model.arch for m in models if hasattr(getattr(m, "model", None), "arch")), None)
+        crop = CropConfig() if arch is None else CropConfig(size=arch.crop_size, center_size=arch.center_size)
+    for m in models:
+        trained = trained_crop(m)
+        if trained is not None and trained != crop:
+            diff = sorted(k for k, v in crop.to_dict().items() if trained.to_dict().get(k) != v)
+            raise ValueError(f"{getattr(m, 'info', {}).get('path') or 'a model'}: trained on crops made with "
+                             f"another CropConfig (differs in {diff})")
+        arch = getattr(getattr(m, "model", None), "arch", None)
+        if arch is not None and (crop.size, crop.center_size) != (arch.crop_size, arch.center_size):
+            raise ValueError(f"crops of {crop.size} px (centre {crop.center_size}) but the network takes "
+                             f"{arch.crop_size} (centre {arch.center_size})")
+    return crop
 
 
 def center_crops(crops: NDArray[np.float32], center_size: int = 32) -> NDArray[np.float32]:

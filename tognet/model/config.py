@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from tognet.config import Config, doc
+from tognet.grasping.crops import CropConfig
 
 
 @dataclass(frozen=True)
@@ -21,8 +22,10 @@ class ArchConfig(Config):
     bottleneck_channels: int = doc(8, "Channels of each stream's 1x1 bottleneck convolution.")
     z_features: int = doc(16, "Width of the small fully connected layer that embeds the gripper depth z.")
     head_hidden: int = doc(64, "Hidden units of each head's fully connected layer.")
-    crop_size: int = doc(64, "Side of the large crop (Q_T|G and action streams), pixels.")
-    center_size: int = doc(32, "Side of the centre crop (Q_G stream), pixels; sliced from the large crop.")
+    crop_size: int = doc(CropConfig().size, "Side of the large crop (Q_T|G and action streams), pixels: the "
+                         "CropConfig's size (the data's crops).")
+    center_size: int = doc(CropConfig().center_size, "Side of the centre crop (Q_G stream), pixels; sliced "
+                           "from the large crop: the CropConfig's center_size.")
     task_head: Literal["policy", "action"] = doc(
         "policy",
         "'policy': the paper's task stream, Q_T|G from (crop, z) alone: the chance of success with the "

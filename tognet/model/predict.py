@@ -218,16 +218,11 @@ class TOGNetPredictor:
         :func:`tognet.grasping.extract_crops` with ``crop_config``: by default the checkpoint's (the one its
         training crops were made with, :attr:`crop_config`), else CropConfig() with this model's crop
         sizes; z from :func:`tognet.grasping.grasp_depths`."""
-        from tognet.grasping import CropConfig, extract_crops, grasp_depths, prepare_depth
+        from tognet.grasping import extract_crops, grasp_depths, prepare_depth
+        from tognet.grasping.crops import resolve_crop
 
         scene = prepare_depth(scene, camera)
-        cfg = crop_config or self.crop_config or CropConfig(size=self.crop_size,
-                                                            center_size=self.model.arch.center_size)
-        if cfg.size != self.crop_size:
-            raise ValueError(f"crop_config.size={cfg.size} but the model takes {self.crop_size}-pixel crops")
-        if cfg.center_size != self.model.arch.center_size:
-            raise ValueError(f"crop_config.center_size={cfg.center_size} but the model's centre crop is "
-                             f"{self.model.arch.center_size} pixels")
+        cfg = resolve_crop([self], crop_config)
         grasps = np.asarray(grasps, dtype=np.float64).reshape(-1, 4)
         crops = extract_crops(scene, None, grasps, cfg)
         return self.predict(crops, grasp_depths(scene.camera, grasps).astype(np.float32))

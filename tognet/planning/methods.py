@@ -42,6 +42,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Literal
 
+from tognet.grasping.crops import resolve_crop
 from tognet.planning.config import PlanConfig
 from tognet.planning.method_names import DIAGNOSTIC_NAMES, METHOD_NAMES
 from tognet.planning.plan import Planner
@@ -49,7 +50,7 @@ from tognet.planning.planners import OracleActions, OracleGrasp, OraclePlanner, 
 from tognet.policies.action import BaselineRandomActions, PolicyActions
 from tognet.policies.action_search import ActionSearchActions, ActionSearchGrasps
 from tognet.policies.grasp import CEMGrasp, NMSGrasps
-from tognet.policies.view import ActionPolicy, GraspPolicy, check_predictor_crops
+from tognet.policies.view import ActionPolicy, GraspPolicy
 from tognet.tasks import Task
 
 #: The models a method can need: "grasp" (the grasp-only Q_G model), "task" (the task's TOG-Net),
@@ -232,13 +233,9 @@ def make_planner(method: str | Method, task: Task, *, grasp_model: Any = None, t
     if task_model is not None and getattr(task_model, "task", task.name) not in (None, task.name):
         raise ValueError(f"the task model was trained for {task_model.task}, not {task.name}")
     used = [models[n] for n in row.needs] + ([task_model] if task_model is not None else [])
-    crop = config.crop
-    if crop is None:
-        from tognet.grasping.crops import CropConfig
-
-        known = [m.crop_config for m in used if getattr(m, "crop_config", None) is not None]
-        crop = known[0] if known else CropConfig()
-    for m in used:
-        check_predictor_crops(m, crop, f"{row.name}'s model")
+    try:
+        crop = resolve_crop(used, config.crop)
+    except ValueError as exc:
+        raise ValueError(f"{row.name}'s model: {exc}") from None
     return PolicyPlanner(row.name, task, row.grasp(inputs), row.action(inputs), config, crop,
                          score_model=task_model)

@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tognet.grasping.antipodal import GraspCandidates, grasp_depths
-from tognet.grasping.crops import CropConfig, extract_crops
+from tognet.grasping.crops import CropConfig, extract_crops, resolve_crop
 from tognet.grasping.depth import DepthScene
 from tognet.tasks import Task
 
@@ -72,8 +72,9 @@ def need_task(view: SceneView) -> Task:
 
 
 def check_predictor_crops(predictor: Any, crop: CropConfig, what: str) -> None:
-    """ValueError when a model was trained on crops made with another CropConfig than ``crop``."""
-    trained = getattr(predictor, "crop_config", None)
-    if trained is not None and trained != crop:
-        diff = sorted(k for k, v in crop.to_dict().items() if trained.to_dict().get(k) != v)
-        raise ValueError(f"{what}: trained on crops made with another CropConfig (differs in {diff})")
+    """ValueError, prefixed with ``what``, when a model was trained on crops made with another CropConfig
+    than ``crop`` (:func:`tognet.grasping.crops.resolve_crop`)."""
+    try:
+        resolve_crop([predictor], crop)
+    except ValueError as exc:
+        raise ValueError(f"{what}: {exc}") from None
