@@ -150,6 +150,8 @@ class Config:
     def load(cls, path: str | Path) -> Self:
         """Read a JSON config; a missing file, bad JSON or mismatched key raises ConfigError."""
         path = Path(path)
+        if path.is_dir():
+            raise ConfigError(f"{path}: is a folder, not a {cls.__name__} JSON file")
         if not path.is_file():
             raise ConfigError(f"config file not found: {path}")
         try:
