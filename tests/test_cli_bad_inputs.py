@@ -359,10 +359,10 @@ CASES: dict[str, Case] = {
     "grasps-config-mm": Case(f"{G} --out @out/o.png --config '{{\"max_width\": 80}}'", "max_width"),
 
     # train
-    "train-data-missing": Case(f"train --data @nope --task sweeping --out @out", "nope"),
-    "train-data-file": Case(f"train --data @afile.txt --task sweeping --out @out", "afile.txt"),
-    "train-data-empty-dir": Case(f"train --data @adir --task sweeping --out @out", "adir"),
-    "train-data-bad-manifest": Case(f"train --data @bad_manifest --task sweeping --out @out", "manifest"),
+    "train-data-missing": Case("train --data @nope --task sweeping --out @out", "nope"),
+    "train-data-file": Case("train --data @afile.txt --task sweeping --out @out", "afile.txt"),
+    "train-data-empty-dir": Case("train --data @adir --task sweeping --out @out", "adir"),
+    "train-data-bad-manifest": Case("train --data @bad_manifest --task sweeping --out @out", "manifest"),
     "train-task-mismatch": Case("train --data @data --task hammering --out @out", "sweeping"),
     "train-task-unknown": Case("train --data @data --task juggling --out @out", "juggling"),
     "train-out-file": Case(f"{T} --out @afile.txt", "not a folder"),
@@ -576,8 +576,9 @@ def test_a_bad_input_is_one_clear_line(ws, name, tmp_path):
 
 
 def test_the_table_covers_every_subcommand():
-    from tognet.cli import app
     import typer
+
+    from tognet.cli import app
 
     group = typer.main.get_command(app)
     names = []

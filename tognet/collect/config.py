@@ -34,11 +34,13 @@ class CollectConfig(Config):
         8,
         "Trials run from one settled scene (state save/restore): a scene (drop, settle, depth image, "
         "candidates, model scores) costs about as much as one trial, so several trials share it.",
+        ge=1,
     )
     scenes_per_job: int = doc(
         4,
         "Scenes in one job (one object, one shard). A job is the unit of work, of resumption and of loss "
         "when a worker dies: small enough to lose little, large enough that a shard is not tiny.",
+        ge=1,
     )
     seed: int = doc(0, "Root seed: every scene and trial seed derives from (seed, task, round, job, scene).")
     sim: SimConfig = doc(factory=SimConfig, text="The simulated world and both tasks' set-ups.")
@@ -59,16 +61,17 @@ class CollectConfig(Config):
 class RoundConfig(Config):
     """One round: how many trials, which policy, how long to train afterwards."""
 
-    episodes: int = doc(1000, "Trials to run (rounded up to whole jobs).")
+    episodes: int = doc(1000, "Trials to run (rounded up to whole jobs).", ge=1)
     policy: RoundPolicy = doc(
         "nms_uniform",
         "'nms_uniform': NMS modes of the candidates ranked by grasp quality, uniform actions over the "
         "task's box (round 1); 'epsilon_greedy': CEM on the last model's Q_T and its action mean plus "
         "noise, with epsilon exploration (rounds 2+).",
     )
-    epochs: int = doc(10, "Training epochs after the round (on all data so far, warm-started).")
+    epochs: int = doc(10, "Training epochs after the round (on all data so far, warm-started).", ge=0)
     expert_actions: float | None = doc(
-        None, "Replaces ``collect.policy.expert_actions`` in this round (None: keep it)."
+        None, "Replaces ``collect.policy.expert_actions`` in this round (None: keep it).",
+        ge=0, le=1,
     )
 
     def collect_config(self, config: CollectConfig) -> CollectConfig:
@@ -111,7 +114,8 @@ class PipelineConfig(Config):
         text="Per-task replacement of ``train`` (a whole TrainConfig; fields left out take their defaults).",
     )
     object_workers: int | None = doc(
-        None, "Processes generating objects (None: the collection's worker count)."
+        None, "Processes generating objects (None: the collection's worker count).",
+        ge=0,
     )
 
 
