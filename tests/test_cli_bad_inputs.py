@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import os
 import re
 import shlex
 import signal
@@ -57,6 +58,7 @@ def run_cli(argv: list[str], limit: int = 60) -> Outcome:
     crash = None
     previous = signal.signal(signal.SIGALRM, _alarm)
     signal.alarm(limit)
+    pid = os.getpid()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         try:
             main(argv)
@@ -66,6 +68,8 @@ def run_cli(argv: list[str], limit: int = 60) -> Outcome:
         except BaseException:  # noqa: BLE001 (any escaped exception is what the table looks for)
             crash = traceback.format_exc()
         finally:
+            if os.getpid() != pid:  # a forked child of the command must never go on running the tests
+                os._exit(70)
             signal.alarm(0)
             signal.signal(signal.SIGALRM, previous)
     return Outcome(code, out.getvalue(), err.getvalue(), crash)

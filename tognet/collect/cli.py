@@ -11,10 +11,23 @@ from tognet.cliutil import (
     RAY_HELP,
     TASKS_HELP,
     WORKERS_HELP,
+    check_disk,
+    check_memory,
     out_folder,
     task_list,
     user_errors,
 )
+
+#: Disk bytes one collected trial takes at least (a shard's compressed columns; 330 B measured).
+EPISODE_BYTES = 250.0
+#: Memory one planned job takes while a round runs (its record, the to-do list, the store's entry).
+JOB_BYTES = 1000.0
+
+
+def check_round_size(option: str, episodes: int, per_job: int, out: Path) -> None:
+    """Refuse a round that cannot fit on the disk of ``out`` or in memory, before anything is written."""
+    check_disk(option, episodes, EPISODE_BYTES, out, "trial")
+    check_memory(option, -(-episodes // per_job), JOB_BYTES, "the round's job list")
 
 
 @user_errors
@@ -27,9 +40,11 @@ def collect_cmd(
                                help="nms_uniform (round 1) or epsilon_greedy (needs --task-model)."),
     round_index: int = typer.Option(1, "--round", min=0, help="Round number (part of every seed)."),
     grasp_model: Path | None = typer.Option(None, "--grasp-model",
-                                            help="Grasp-only checkpoint ranking the NMS grasps by Q_G."),
+                                            help="The grasp-only checkpoint (task 'grasping', e.g. "
+                                            "tognet/models/grasping.pt) ranking the NMS grasps by Q_G."),
     task_model: Path | None = typer.Option(None, "--task-model",
-                                           help="Last round's checkpoint (CEM grasps, policy actions)."),
+                                           help="Last round's checkpoint of the same --task (CEM grasps, policy "
+                                           "actions; an action-search model runs the learned search)."),
     config: Path | None = typer.Option(None, "--config", help="CollectConfig JSON file (else defaults)."),
     workers: int | None = typer.Option(None, "--workers", min=0, help=WORKERS_HELP),
     ray: bool = typer.Option(False, "--ray", help=RAY_HELP),
@@ -37,7 +52,11 @@ def collect_cmd(
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show the progress bar."),
 ) -> None:
     """Collect one round of self-supervised trials into a dataset folder (killed, it resumes when run
-    again with the same arguments)."""
+    again with the same arguments).
+
+    --out holds shard-<job>.npz files (one job: one object, a few scenes), manifest.json (counts, labels,
+    hashes), configs/ (the settings) and summary.json (the round's figures). Run again on the same --out with
+    the same arguments it resumes; other arguments are refused."""
     from tognet.collect.config import CollectConfig, RoundConfig
     from tognet.collect.jobs import GRASP_ONLY
     from tognet.collect.rounds import collect_round
@@ -51,12 +70,16 @@ def collect_cmd(
         raise ValueError(f"unknown policy '{policy}'; use nms_uniform or epsilon_greedy")
     if policy == "epsilon_greedy" and task_model is None:
         raise ValueError("--policy epsilon_greedy needs --task-model (the last round's best.pt)")
-    for path in (grasp_model, task_model):
-        if path is not None and not path.is_file():
-            raise FileNotFoundError(f"checkpoint not found: {path}")
     out_folder(out)
-    records = [r for folder in objects for r in load_catalog(folder)]
     cfg = CollectConfig.load(config) if config else CollectConfig()
+    check_round_size("--episodes", episodes, cfg.scenes_per_job * cfg.trials_per_scene, out)
+    records = [r for folder in objects for r in load_catalog(folder)]
+    from tognet.model.checkpoint import check_model_role
+
+    if grasp_model is not None:
+        check_model_role(grasp_model, GRASP_ONLY, "--grasp-model", context=" (e.g. tognet/models/grasping.pt)")
+    if task_model is not None:
+        check_model_role(task_model, task, "--task-model", context=f" for --task {task}")
     executor = make_executor(workers, ray, ray_address)
     try:
         collect_round(task, round_index, records, RoundConfig(episodes=episodes, policy=policy), cfg, out,
