@@ -424,7 +424,7 @@ CASES: dict[str, Case] = {
     "pipe-preset": Case("pipeline --task hammering --preset fast --out @out", "fast"),
     "pipe-preset-bad": Case("pipeline --task hammering --preset @bad.json --out @out", "bad.json"),
     "pipe-preset-missing": Case("pipeline --task hammering --preset @nope.json --out @out", "nope.json"),
-    "pipe-preset-huge": Case("pipeline --task hammering --preset @preset_huge.json --out @out", "episodes"),
+    "pipe-preset-huge": Case("pipeline --task hammering --preset @preset_huge.json --out @out", "trials"),
     "pipe-preset-objects-neg": Case("pipeline --task hammering --preset @preset_objects.json --out @out",
                                     "objects"),
     "pipe-preset-epochs-0": Case("pipeline --task hammering --preset @preset_epochs.json --out @out", "epochs"),

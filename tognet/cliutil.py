@@ -211,7 +211,7 @@ def out_file(path: Path, option: str = "--out", suffix: str | Iterable[str] | No
     if suffix is not None:
         allowed = (suffix,) if isinstance(suffix, str) else tuple(suffix)
         if path.suffix.lower() not in allowed:
-            raise TognetError(f"{option} {path}: must name a {' or '.join(allowed)} file")
+            raise TognetError(f"{option} must name a {' or '.join(allowed)} file, got '{path}'")
     above = _file_above(path)
     if above is not None:
         raise TognetError(f"{option} {path}: {above} is a file, not a folder")
@@ -280,24 +280,26 @@ def available_memory() -> int:
         return 1 << 62
 
 
-def check_memory(option: str, count: int, bytes_each: float, what: str) -> None:
+def check_memory(option: str, count: int, bytes_each: float, what: str, label: str | None = None) -> None:
     """Refuse ``count`` items held in memory at about ``bytes_each`` bytes each when the machine has not
-    that much available, before any work: one line with the estimate."""
+    that much available, before any work: one line with the estimate (``label`` replaces the opening
+    ``<option> <count>``)."""
     need = count * bytes_each
     have = available_memory()
     if need > have:
         raise TognetError(
-            f"{option} {count}: would hold about {human_bytes(need)} in memory ({what}), but this machine has "
+            f"{label or f'{option} {count}'}: would hold about {human_bytes(need)} in memory ({what}), but this machine has "
             f"{human_bytes(have)} available; ask for fewer")
 
 
 def check_disk(option: str, count: int, bytes_each: float, folder: Path, what: str = "episode",
-               ) -> None:
+               label: str | None = None) -> None:
     """Refuse ``count`` items of about ``bytes_each`` bytes when the disk holding ``folder`` cannot take
-    them, before any is written: one line with the estimate and what is free."""
+    them, before any is written: one line with the estimate and what is free (``label`` replaces the
+    opening ``<option> <count>``)."""
     need = count * bytes_each
     free = shutil.disk_usage(_existing_ancestor(folder)).free
     if need > free:
         raise TognetError(
-            f"{option} {count}: would need about {human_bytes(need)} (about {human_bytes(bytes_each)} per "
+            f"{label or f'{option} {count}'}: would need about {human_bytes(need)} (about {human_bytes(bytes_each)} per "
             f"{what}), but the disk holding {folder} has {human_bytes(free)} free; ask for fewer")

@@ -187,6 +187,10 @@ def _from_dict(cls: type, data: dict[str, Any], where: str) -> Any:
         return cls(**kwargs)
     except ConfigRangeError as exc:
         raise ConfigError(f"{where}.{exc.field} {exc.rule}") from None
+    except ConfigError:
+        raise
+    except ValueError as exc:  # a config's own __post_init__ check: say where the value came from
+        raise ConfigError(f"{where}: {exc}") from None
     except TypeError as exc:
         raise ConfigError(f"{where}: {exc}") from exc
 

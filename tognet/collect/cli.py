@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import typer
 
@@ -22,6 +23,25 @@ from tognet.cliutil import (
 EPISODE_BYTES = 250.0
 #: Memory one planned job takes while a round runs (its record, the to-do list, the store's entry).
 JOB_BYTES = 1000.0
+
+
+def check_pipeline_size(cfg: Any, preset: str, tasks: list[str], out: Path) -> None:
+    """Refuse a preset whose objects and rounds cannot fit on the disk of ``out`` or in memory, before
+    anything is generated: the reason names the preset's numbers."""
+    from tognet.objects.cli import OBJECT_BYTES, RECORD_BYTES
+
+    objects = sum(cfg.objects.values())
+    label = f"--preset {preset}: {objects} objects"
+    check_disk("--preset", objects, OBJECT_BYTES, out, "object", label=label)
+    check_memory("--preset", objects, RECORD_BYTES, "the objects' records", label=label)
+    rounds = [cfg.grasp_round, *(rc for t in tasks for rc in cfg.rounds_for(t))]
+    per_job = cfg.collect.scenes_per_job * cfg.collect.trials_per_scene
+    trials = sum(rc.episodes for rc in rounds)
+    check_disk("--preset", trials, EPISODE_BYTES, out, "trial", label=f"--preset {preset}: {trials} trials in "
+               f"its rounds for {', '.join(tasks)}")
+    largest = max(rc.episodes for rc in rounds)
+    check_memory("--preset", -(-largest // per_job), JOB_BYTES, "its job list",
+                 label=f"--preset {preset}: a round of {largest} trials")
 
 
 def check_round_size(option: str, episodes: int, per_job: int, out: Path) -> None:
@@ -103,12 +123,21 @@ def pipeline_cmd(
 ) -> None:
     """The self-supervision loop: objects, a grasp-only round and its Q_G model, then per task the rounds
     of collection (round 1 explores, later rounds epsilon-greedy with the last model), each followed by
-    training on all data so far. Writes summary.md / summary.json into --out."""
+    training on all data so far. Writes summary.md / summary.json into --out.
+
+    --out holds preset.json (the PipelineConfig), objects/<kind>-train/ (the training objects),
+    grasping/round0/data/ and grasping/model/ (the grasp-only round and its Q_G model), and per task
+    <task>/round<k>/data/ (shards, manifest.json, summary.json: the round's figures) and
+    <task>/round<k>/model/ (best.pt, last.pt, metrics.json, curves.png), then summary.json and summary.md.
+    --resume continues a run in --out from where it stopped (the same preset); it is refused when --out
+    holds no run, and a run is never restarted over an existing one without it."""
     from tognet.collect.config import load_preset
     from tognet.collect.pipeline import run_pipeline
 
     tasks = task_list(task)
+    out_folder(out)
     cfg = load_preset(preset)
+    check_pipeline_size(cfg, preset, tasks, out)
     run_pipeline(cfg, tasks, out, workers=workers, ray=ray, ray_address=ray_address, resume=resume,
                  progress=progress, log=typer.echo)
     typer.echo(f"summary: {out / 'summary.md'}")
@@ -121,9 +150,14 @@ def export_cmd(
     command: str | None = typer.Option(None, "--command", help="The command that made the run (recorded)."),
 ) -> None:
     """Copy a finished run's final models (the grasp-only model and each task's last round) with their
-    summaries: how they were trained, per-round collection figures, held-out metrics, training curves."""
+    summaries: how they were trained, per-round collection figures, held-out metrics, training curves.
+
+    Writes grasping.pt and <task>.pt (the last round's best.pt) into --out, each with <name>.json (the
+    preset, every round's collection summary and held-out metrics, the training history, the command):
+    the layout of tognet/models/. Nothing is written unless every model of the run is there."""
     from tognet.collect.pipeline import export_models
 
+    out_folder(out)
     for path in export_models(run, out, command):
         typer.echo(f"wrote {path} and {path.with_suffix('.json').name}")
 
