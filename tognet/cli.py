@@ -46,7 +46,9 @@ def _register_all() -> None:
 _register_all()
 
 #: click's base class of usage errors, as the click typer bundles spells it (typer exports a subclass).
-_CLICK_EXCEPTION: type[Exception] = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException")
+_CLICK_EXCEPTION: type[Exception] = next(
+    c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException"
+)
 
 
 def main(argv: list[str] | None = None) -> None:

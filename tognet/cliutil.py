@@ -118,7 +118,9 @@ def os_error_reason(exc: OSError, path: Path) -> str:
             return f"{path} is a file, not a folder"
     if code == errno.ENOTDIR:
         above = _file_above(path)
-        return f"{above} is a file, not a folder" if above is not None else "a part of the path is not a folder"
+        if above is not None:
+            return f"{above} is a file, not a folder"
+        return "a part of the path is not a folder"
     if code == errno.ENOENT:
         return "no such file or folder"
     if code in (errno.EACCES, errno.EPERM):
@@ -253,7 +255,8 @@ def in_folder(path: Path, option: str, what: str = "folder") -> Path:
 def positive(value: float, option: str, what: str = "") -> float:
     """``value`` checked to be a positive finite number: a one-line user error naming ``option``."""
     if not (value > 0 and value < float("inf")):
-        raise TognetError(f"{option} must be a positive number{' (' + what + ')' if what else ''}, got {value}")
+        detail = f" ({what})" if what else ""
+        raise TognetError(f"{option} must be a positive number{detail}, got {value}")
     return value
 
 
@@ -288,8 +291,8 @@ def check_memory(option: str, count: int, bytes_each: float, what: str, label: s
     have = available_memory()
     if need > have:
         raise TognetError(
-            f"{label or f'{option} {count}'}: would hold about {human_bytes(need)} in memory ({what}), but this machine has "
-            f"{human_bytes(have)} available; ask for fewer")
+            f"{label or f'{option} {count}'}: would hold about {human_bytes(need)} in memory ({what}), but "
+            f"this machine has {human_bytes(have)} available; ask for fewer")
 
 
 def check_disk(option: str, count: int, bytes_each: float, folder: Path, what: str = "episode",
@@ -301,5 +304,6 @@ def check_disk(option: str, count: int, bytes_each: float, folder: Path, what: s
     free = shutil.disk_usage(_existing_ancestor(folder)).free
     if need > free:
         raise TognetError(
-            f"{label or f'{option} {count}'}: would need about {human_bytes(need)} (about {human_bytes(bytes_each)} per "
-            f"{what}), but the disk holding {folder} has {human_bytes(free)} free; ask for fewer")
+            f"{label or f'{option} {count}'}: would need about {human_bytes(need)} (about "
+            f"{human_bytes(bytes_each)} per {what}), but the disk holding {folder} has {human_bytes(free)} "
+            "free; ask for fewer")

@@ -93,8 +93,9 @@ def check_ranges(config: Any) -> None:
         if (f.name == "seed" or f.name.endswith("_seed")) and not bounds:
             bounds = {"ge": 0}
         for x in numbers:
-            if (("gt" in bounds and not x > bounds["gt"]) or ("ge" in bounds and not x >= bounds["ge"])
-                    or ("lt" in bounds and not x < bounds["lt"]) or ("le" in bounds and not x <= bounds["le"])):
+            low = ("gt" in bounds and not x > bounds["gt"]) or ("ge" in bounds and not x >= bounds["ge"])
+            high = ("lt" in bounds and not x < bounds["lt"]) or ("le" in bounds and not x <= bounds["le"])
+            if low or high:
                 unit = _unit(f.metadata.get("doc", ""))
                 raise ConfigRangeError(owner, f.name, f"{_rule(bounds)}{unit}, got {shown}")
 

@@ -37,8 +37,8 @@ def check_pipeline_size(cfg: Any, preset: str, tasks: list[str], out: Path) -> N
     rounds = [cfg.grasp_round, *(rc for t in tasks for rc in cfg.rounds_for(t))]
     per_job = cfg.collect.scenes_per_job * cfg.collect.trials_per_scene
     trials = sum(rc.episodes for rc in rounds)
-    check_disk("--preset", trials, EPISODE_BYTES, out, "trial", label=f"--preset {preset}: {trials} trials in "
-               f"its rounds for {', '.join(tasks)}")
+    check_disk("--preset", trials, EPISODE_BYTES, out, "trial",
+               label=f"--preset {preset}: {trials} trials in its rounds for {', '.join(tasks)}")
     largest = max(rc.episodes for rc in rounds)
     check_memory("--preset", -(-largest // per_job), JOB_BYTES, "its job list",
                  label=f"--preset {preset}: a round of {largest} trials")
@@ -63,8 +63,9 @@ def collect_cmd(
                                             help="The grasp-only checkpoint (task 'grasping', e.g. "
                                             "tognet/models/grasping.pt) ranking the NMS grasps by Q_G."),
     task_model: Path | None = typer.Option(None, "--task-model",
-                                           help="Last round's checkpoint of the same --task (CEM grasps, policy "
-                                           "actions; an action-search model runs the learned search)."),
+                                           help="Last round's checkpoint of the same --task (CEM grasps, "
+                                           "policy actions; an action-search model runs the learned "
+                                           "search)."),
     config: Path | None = typer.Option(None, "--config", help="CollectConfig JSON file (else defaults)."),
     workers: int | None = typer.Option(None, "--workers", min=0, help=WORKERS_HELP),
     ray: bool = typer.Option(False, "--ray", help=RAY_HELP),
@@ -97,7 +98,8 @@ def collect_cmd(
     from tognet.model.checkpoint import check_model_role
 
     if grasp_model is not None:
-        check_model_role(grasp_model, GRASP_ONLY, "--grasp-model", context=" (e.g. tognet/models/grasping.pt)")
+        check_model_role(grasp_model, GRASP_ONLY, "--grasp-model",
+                         context=" (e.g. tognet/models/grasping.pt)")
     if task_model is not None:
         check_model_role(task_model, task, "--task-model", context=f" for --task {task}")
     executor = make_executor(workers, ray, ray_address)

@@ -123,10 +123,11 @@ class PipelineConfig(Config):
         first explores: an epsilon-greedy round needs the model of a round before it)."""
         for kind, count in self.objects.items():
             if kind not in ("primitive", "complex"):
-                raise ConfigRangeError("PipelineConfig", "objects", f"has an unknown kind {kind!r} (primitive, "
-                                       "complex)")
+                raise ConfigRangeError("PipelineConfig", "objects",
+                                       f"has an unknown kind {kind!r} (primitive, complex)")
             if count < 0:
-                raise ConfigRangeError("PipelineConfig", "objects", f"[{kind!r}] must be 0 or more, got {count}")
+                raise ConfigRangeError("PipelineConfig", "objects",
+                                       f"[{kind!r}] must be 0 or more, got {count}")
         if sum(self.objects.values()) < 1:
             raise ConfigRangeError("PipelineConfig", "objects", f"asks for no objects: {self.objects}")
         for name, rounds in (("rounds", self.rounds), *((f"task_rounds.{t}", r) for t, r in
@@ -134,8 +135,8 @@ class PipelineConfig(Config):
             if not rounds:
                 raise ConfigRangeError("PipelineConfig", name, "is empty: a task needs at least one round")
             if rounds[0].policy == "epsilon_greedy":
-                raise ConfigRangeError("PipelineConfig", name, "starts with an epsilon_greedy round, which needs "
-                                       "the model of a round before it; start with nms_uniform")
+                raise ConfigRangeError("PipelineConfig", name, "starts with an epsilon_greedy round, which "
+                                       "needs the model of a round before it; start with nms_uniform")
 
     def rounds_for(self, task: str) -> tuple[RoundConfig, ...]:
         """The rounds of ``task``."""

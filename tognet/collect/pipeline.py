@@ -51,10 +51,11 @@ def _check_out(out: Path, preset: PipelineConfig, resume: bool) -> None:
             diff = sorted(k for k in a if a[k] != b.get(k))
             raise PipelineError(f"{saved}: the run was started with another preset (differs in {diff}); "
                                 "resume with the same preset or use another --out")
-    elif resume:  # as `tognet train --resume` and `tognet evaluate --resume`: nothing there, nothing to resume
+    elif resume:  # as `train --resume` and `evaluate --resume`: nothing there, nothing to resume
         what = "is not a pipeline run (no preset.json)" if out.is_dir() and any(out.iterdir()) else \
             "holds no pipeline run"
-        raise PipelineError(f"--out {out} {what}, so there is nothing to resume; drop --resume to start a run")
+        raise PipelineError(f"--out {out} {what}, so there is nothing to resume; drop --resume to start "
+                            "a run")
     out.mkdir(parents=True, exist_ok=True)
     preset.save(saved)
 

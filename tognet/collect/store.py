@@ -64,8 +64,8 @@ class RoundStore:
         else:
             old = manifest.get("collection")
             if manifest.get("task") != task:
-                raise DatasetError(f"{self.folder / MANIFEST}: holds a dataset of task {manifest.get('task')!r}, "
-                                   f"not {task!r}; use another folder")
+                raise DatasetError(f"{self.folder / MANIFEST}: holds a dataset of task "
+                                   f"{manifest.get('task')!r}, not {task!r}; use another folder")
             if old != json.loads(json.dumps(self.meta)):
                 raise DatasetError(
                     f"{self.folder / MANIFEST}: holds another collection ({_differences(old, self.meta)}); "

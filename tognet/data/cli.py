@@ -110,8 +110,8 @@ def data_synth_cmd(
     check_disk("--episodes", episodes, SYNTHETIC_BYTES, out, "episode")
     check_memory("--shard-size", shard_size, BUFFERED_BYTES, "one shard's episodes before it is written")
     with tqdm(total=episodes, desc="synthetic", unit="ep", disable=not progress, leave=False) as bar:
-        write_synthetic_dataset(out, task=task, n=episodes, shard_size=shard_size, seed=seed, n_objects=objects,
-                                progress=bar.update)
+        write_synthetic_dataset(out, task=task, n=episodes, shard_size=shard_size, seed=seed,
+                                n_objects=objects, progress=bar.update)
     typer.echo(f"wrote {episodes} synthetic episodes to {out}")
 
 

@@ -47,8 +47,8 @@ CHUNK = 4096
 
 
 def synthetic_episodes(
-    n: int, n_objects: int = 20, seed: int = 0, narrow_px: int = 8, noise: float = 0.002, invalid: float = 0.0,
-    chunk: int = 0, start: int = 0,
+    n: int, n_objects: int = 20, seed: int = 0, narrow_px: int = 8, noise: float = 0.002,
+    invalid: float = 0.0, chunk: int = 0, start: int = 0,
 ) -> EpisodeArrays:
     """``n`` episodes over ``n_objects`` bar objects, labelled by the rule in the module docstring.
 

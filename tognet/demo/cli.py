@@ -16,7 +16,6 @@ import typer
 
 from tognet.cliutil import check_disk, check_memory, out_folder, user_errors
 
-
 #: The most scenes per scripted check ``--seeds`` takes (a few episodes each, about a second).
 MAX_SEEDS = 1000
 

@@ -35,8 +35,9 @@ def check_run_folder(run: Path, tasks: list[str]) -> None:
     if not run.is_dir():
         raise ValueError(f"--run {run}: is a file; give a `tognet pipeline` run folder")
     if not any((run / t / "round1").is_dir() for t in tasks):
-        raise ValueError(f"--run {run}: holds no {' or '.join(f'{t}/round1' for t in tasks)} folder, so it is "
-                         "not a `tognet pipeline` run of these tasks")
+        rounds = " or ".join(f"{t}/round1" for t in tasks)
+        raise ValueError(f"--run {run}: holds no {rounds} folder, so it is not a `tognet pipeline` run of "
+                         "these tasks")
 
 
 @user_errors
@@ -67,9 +68,9 @@ def evaluate_cmd(
     scenes_per_job: int | None = typer.Option(None, "--scenes-per-job", min=1, help="Scenes per job (one "
                                               "object) (default: the config's, 2)."),
     config: Path | None = typer.Option(None, "--config", help="EvalConfig JSON file (else defaults)."),
-    run: Path | None = typer.Option(None, "--run", help="A `tognet pipeline` run folder (with <task>/round<k>/) "
-                                    "whose per-round training curves the report shows (default: the task "
-                                    "model's run, when it lies in one)."),
+    run: Path | None = typer.Option(None, "--run", help="A `tognet pipeline` run folder (with "
+                                    "<task>/round<k>/) whose per-round training curves the report shows "
+                                    "(default: the task model's run, when it lies in one)."),
     animations: bool = typer.Option(True, "--animations/--no-animations", help="GIFs of typical episodes "
                                     "(needs MuJoCo's renderer: EGL)."),
     workers: int | None = typer.Option(None, "--workers", min=0, help=WORKERS_HELP),

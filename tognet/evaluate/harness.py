@@ -165,7 +165,7 @@ def _check_out(out: Path, settings: dict[str, Any], resume: bool) -> None:
             diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
             raise SettingsChanged(f"{saved}: the evaluation was started with other settings (differs in "
                             f"{', '.join(diff)}); resume with the same ones or use another --out")
-    elif resume:  # as `tognet train --resume` and `tognet pipeline --resume`: nothing there, nothing to resume
+    elif resume:  # as `train --resume` and `pipeline --resume`: nothing there, nothing to resume
         what = f"is not an evaluation (no {SETTINGS})" if out.is_dir() and any(out.iterdir()) else \
             "holds no evaluation"
         raise EvalError(f"--out {out} {what}, so there is nothing to resume; drop --resume to start one")

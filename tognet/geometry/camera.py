@@ -38,9 +38,9 @@ def focal_length_problem(name: str, focal: float, size: int) -> str | None:
         return None
     f_lo = size / (2 * np.tan(np.radians(hi) / 2))
     f_hi = size / (2 * np.tan(np.radians(lo) / 2))
-    return (f"{name} = {focal:g} px gives a {fov:.3g} deg field of view across {size} pixels; a depth camera's "
-            f"is {lo:g}-{hi:g} deg ({name} {f_lo:.0f}-{f_hi:.0f} px): focal lengths are in pixels, for this "
-            "image size")
+    return (f"{name} = {focal:g} px gives a {fov:.3g} deg field of view across {size} pixels; a depth "
+            f"camera's is {lo:g}-{hi:g} deg ({name} {f_lo:.0f}-{f_hi:.0f} px): focal lengths are in pixels, "
+            "for this image size")
 
 
 @dataclass(frozen=True)

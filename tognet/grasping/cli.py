@@ -179,7 +179,8 @@ def grasps(
     if max_candidates is not None:
         cfg = cfg.replace(max_candidates=max_candidates)
     if use_cem and checkpoint is None:
-        raise TognetError("--cem needs a scorer (--checkpoint): the analytic quality only exists for candidates")
+        raise TognetError("--cem needs a scorer (--checkpoint): the analytic quality only exists for "
+                          "candidates")
     cam = load_camera(camera, camera_pose)
     image = load_depth_file(depth)
     try:
@@ -190,7 +191,8 @@ def grasps(
     score_fn = load_scorer(checkpoint, scene, kind) if checkpoint is not None and kind else None
     name = {"grasp": "Q_G", "task": "Q_T", None: "analytic quality"}[kind]
     cands, scores, path = render_grasps(
-        scene, out, config=cfg, seed=seed, score_fn=score_fn, use_nms=use_nms, use_cem=use_cem, score_name=name
+        scene, out, config=cfg, seed=seed, score_fn=score_fn, use_nms=use_nms, use_cem=use_cem,
+        score_name=name,
     )
     if len(cands) == 0:
         typer.echo(f"no grasp candidates found; wrote {path}")

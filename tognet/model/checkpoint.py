@@ -262,8 +262,9 @@ def check_model_role(path: str | Path, task: str, option: str, *, action_search:
         raise CheckpointError(f"{option} {path} is {found}; {option} must be {what}{context}")
     head = payload["config_obj"].arch.task_head
     if action_search is True and head != "action":
-        raise CheckpointError(f"{option} {path}: its task stream does not see the action (task_head={head!r}); "
-                              "the action search needs a model trained with ArchConfig.task_head='action'")
+        raise CheckpointError(f"{option} {path}: its task stream does not see the action "
+                              f"(task_head={head!r}); the action search needs a model trained with "
+                              "ArchConfig.task_head='action'")
     if action_search is False and head == "action":
         raise CheckpointError(f"{option} {path}: an action-search model (task_head='action'); {option} takes "
                               "a TOG-Net model (task_head='policy')")

@@ -76,7 +76,8 @@ class PolicyConfig(Config):
     settings the planners use too."""
 
     epsilon_grasp: float = doc(
-        0.2, "epsilon_1: probability of an NMS grasp instead of the model's CEM grasp (rounds 2+; paper 0.2).",
+        0.2,
+        "epsilon_1: probability of an NMS grasp instead of the model's CEM grasp (rounds 2+; paper 0.2).",
         ge=0, le=1,
     )
     epsilon_action: float = doc(

@@ -20,7 +20,7 @@ class RenderError(TognetError):
 def check_renderer() -> None:
     """Raise :class:`RenderError` (one line: what to set or install) when the MUJOCO_GL the user set
     cannot work; called before an episode that is to be animated, so the error comes first."""
-    from tognet.sim import GL_PROBLEM
+    from tognet.sim.gl import GL_PROBLEM
 
     if GL_PROBLEM is not None:
         raise RenderError(f"cannot animate: {GL_PROBLEM}")
