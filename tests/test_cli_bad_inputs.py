@@ -381,7 +381,7 @@ CASES: dict[str, Case] = {
     "train-out-sys": Case(f"{T} --out /sys/tognet-t", "/sys"),
     "train-config-missing": Case(f"{T} --out @out --config @nope.json", "not found"),
     "train-config-bad": Case(f"{T} --out @out --config @bad.json", "not valid json"),
-    "train-lr-neg": Case(f"{T} --out @out --config @train_lr.json", "lr"),
+    "train-lr-neg": Case(f"{T} --out @out --config @train_lr.json", "lr must be 0 or more"),
     "train-batch-0": Case(f"{T} --out @out --config @train_batch.json", "batch_size"),
     "train-val-fraction": Case(f"{T} --out @out --config @train_val.json", "val_fraction"),
     "train-config-seed-neg": Case(f"{T} --out @out --config @train_seed.json", "seed"),

@@ -196,7 +196,7 @@ def out_folder(path: Path, option: str = "--out") -> Path:
     """``path`` checked as a folder to write into, before any work: a file there (or above it), or a place
     the user may not write, is a one-line user error. Nothing is created."""
     if path.exists() and not path.is_dir():
-        raise TognetError(f"{option} {path}: exists and is not a folder; pass a folder")
+        raise TognetError(f"{option} {path}: exists and is not a folder (it is a file); pass a folder")
     above = _file_above(path)
     if above is not None:
         raise TognetError(f"{option} {path}: {above} is a file, not a folder")

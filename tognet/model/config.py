@@ -88,7 +88,7 @@ class TrainConfig(Config):
     loss: LossConfig = doc(factory=LossConfig, text="Loss definition.")
     epochs: int = doc(30, "Maximum number of passes over the training episodes.", ge=1)
     batch_size: int = doc(128, "Episodes per optimisation step.", ge=1)
-    lr: float = doc(1e-3, "Adam learning rate.", gt=0)
+    lr: float = doc(1e-3, "Adam learning rate (0: no updates).", ge=0)
     weight_decay: float = doc(1e-4, "Adam (L2) weight decay.", ge=0)
     lr_decay: float = doc(0.95, "Learning rate multiplied by this after every epoch.", gt=0, le=1)
     val_fraction: float = doc(

@@ -66,7 +66,7 @@ def generate(
     from tognet.objects.generate import GeneratorConfig, generate_set, realistic_count
 
     if kind == Kind.realistic and split == Split.train:
-        raise ValueError("--kind realistic has a test split only (the realistic models are never trained "
+        raise ValueError("--kind realistic is a test set only (the realistic models are never trained "
                          "on); pass --split test")
     out_folder(out)
     cfg = GeneratorConfig.load(config) if config is not None else None
