@@ -91,14 +91,14 @@ def register(app: typer.Typer) -> None:
         grasp: tuple[float, float, float, float] | None = typer.Option(
             None,
             metavar="X Y Z PHI",
-            help="Grasp x y z phi (world, m, rad). Default: found by a search (see below); with --task "
-            "grasping, at the centre of mass across the narrow side.",
+            help="Grasp x y z phi (world, m, rad). Default: found by a search (see the description above); "
+            "with --task grasping, at the centre of mass across the narrow side.",
         ),
         action: tuple[float, float, float, float] | None = typer.Option(
             None,
             metavar="AX AY AZ APHI",
             help="Action a_x a_y a_z a_phi (m, rad) relative to the task's reference point. Default: found "
-            "by a search (see below).",
+            "by a search (see the description above).",
         ),
         seed: int = typer.Option(0, min=0, help="Scene seed (object drop, camera, props)."),
         trial_seed: int = typer.Option(0, min=0, help="Execution-noise seed of the trial."),
