@@ -580,7 +580,7 @@ CASES: dict[str, Case] = {
 def test_a_bad_input_is_one_clear_line(ws, name, tmp_path):
     case = CASES[name]
     out = tmp_path / "out"
-    before = _tree(ws)
+    before, here = _tree(ws), set(os.listdir("."))
     result = run_cli(case.argv(ws, out))
     found = problems(result)
     assert not found, f"{name}: {found}\nstdout: {result.stdout[-2000:]}\nstderr: {result.stderr[-2000:]}"
@@ -590,18 +590,12 @@ def test_a_bad_input_is_one_clear_line(ws, name, tmp_path):
     after = _tree(ws)
     assert after == before, f"{name}: left {sorted(after - before)} (removed {sorted(before - after)})"
     assert not out.exists(), f"{name}: wrote {out}"
+    assert set(os.listdir(".")) == here, f"{name}: left {set(os.listdir('.')) - here} in the working folder"
 
 
 def test_the_table_covers_every_subcommand():
-    import typer
-
-    from tognet.cli import app
-
-    group = typer.main.get_command(app)
-    names = []
-    for name, command in group.commands.items():  # type: ignore[attr-defined]
-        sub = getattr(command, "commands", None)
-        names += [f"{name} {s}" for s in sub] if sub else [name]
+    names = _subcommands()
+    assert len(names) == 18, names
     args = [c.args for c in CASES.values()]
     missing = [n for n in names if not any(a == n or a.startswith(n + " ") for a in args)]
     assert not missing, f"no bad-input case for: {missing}"
@@ -713,3 +707,31 @@ def test_a_config_out_of_range_names_the_field_made_directly_or_loaded(tmp_path)
     path.write_text(json.dumps({"world": {"table_size": [1.2, -0.7]}}))
     with pytest.raises(ConfigError, match=r"table_size must be positive \(m\), got \(1.2, -0.7\)"):
         SimConfig.load(path)
+
+
+def _subcommands() -> list[str]:
+    import typer
+
+    from tognet.cli import app
+
+    group = typer.main.get_command(app)
+    names = []
+    for name, command in group.commands.items():  # type: ignore[attr-defined]
+        sub = getattr(command, "commands", None)
+        names += [f"{name} {s}" for s in sub] if sub else [name]
+    return names
+
+
+def test_every_help_says_what_the_command_does():
+    texts = {}
+    for name in _subcommands():
+        result = run_cli([*name.split(), "--help"])
+        assert result.code == 0 and result.crash is None, (name, result)
+        texts[name] = " ".join(result.stdout.split())
+    assert "hand-computed" in texts["sim"] and "Default: zeros" not in texts["sim"]
+    assert "--camera-pose" in texts["grasps"] and "Q_G" in texts["grasps"]
+    for name in ("train", "pipeline", "evaluate"):
+        assert "--resume" in texts[name] and "refused" in texts[name], name
+    for name, layout in (("pipeline", "round<k>/data/"), ("evaluate", "evaluation.json"),
+                         ("collect", "manifest.json"), ("train", "best.pt"), ("export-models", "<task>.pt")):
+        assert layout in texts[name], name
