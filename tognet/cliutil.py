@@ -164,6 +164,8 @@ def user_errors(func: F) -> F:
         try:
             return func(*args, **kwargs)
         except USER_ERRORS as exc:
+            if isinstance(exc, OSError) and exc.errno == errno.EPIPE:
+                raise  # the reader of stdout went away (`tognet ... | head`): tognet.cli.main ends quietly
             if isinstance(exc, OSError) and exc.errno is not None:
                 where = None if exc.filename is None else _option_of(os.fsdecode(exc.filename), kwargs, names)
                 message = os_error_message(exc, where)

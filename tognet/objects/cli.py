@@ -113,6 +113,9 @@ def import_cmd(
     The other files are convex-decomposed and written. An object already in --out is kept: a file imported
     before unchanged is skipped, a changed one is refused unless --replace.
 
+    Writes into --out as `tognet objects generate` does: a folder per object (imported-<file stem>/:
+    object.xml, visual.obj, collision_*.obj) and the set's catalog.json and catalog.csv.
+
     Exit code: 0 if every file was imported (or skipped unchanged), 1 if any failed, 2 on a usage error.
     """
     from tognet.objects.importer import import_meshes
