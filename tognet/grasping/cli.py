@@ -199,7 +199,7 @@ def grasps(
         return
     typer.echo(
         f"{len(cands)} candidates (width {1000 * cands.widths.min():.0f}-{1000 * cands.widths.max():.0f} mm, "
-        f"{name} {scores.min():.3g}-{scores.max():.3g}); wrote {path}"
+        f"{name} {scores.min():.3g} to {scores.max():.3g}); wrote {path}"
     )
 
 
