@@ -515,6 +515,8 @@ CASES: dict[str, Case] = {
     "eval-grasp-model-missing": Case(f"{E} --grasp-model @nope.pt", "nope.pt"),
     "eval-grasp-model-task": Case(f"{E} --grasp-model @models/hammering.pt", "hammering"),
     "eval-hammering-model-sweeping": Case(f"{E} --hammering-model @models/sweeping.pt", "sweeping"),
+    "eval-task-model-search-head": Case(f"{E} --hammering-model @models/hammering_search.pt",
+                                        "hammering_search="),
     "eval-task-model-syntax": Case(f"{E} --task-model hammering", "name=path"),
     "eval-task-model-task": Case(f"{E} --task-model juggling=@models/hammering.pt", "juggling"),
     "eval-task-model-grasp": Case(f"{E} --task-model hammering=@models/grasping.pt", "grasping"),

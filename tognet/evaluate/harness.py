@@ -117,6 +117,10 @@ def check_models(models: dict[str, Path]) -> None:
         if name != task and not model.action_conditioned:
             raise EvalError(f"{path}: given as the {name} model, but its task stream does not see the action "
                             "(train it with ArchConfig.task_head='action')")
+        if name == task and task != "grasping" and model.action_conditioned:
+            raise EvalError(f"{path}: an action-search model (task_head='action'), given as the {task} "
+                            f"TOG-Net model; pass it as --task-model {task}_search={path} "
+                            "(TOG-Net+ActionSearch)")
 
 
 def test_objects(category: str, count: int, out: Path, workers: int = 1, progress: bool = True,
