@@ -68,7 +68,7 @@ def test_grasps_config_with_an_impossible_value_names_it_inline_or_from_a_file(t
         result = _run("grasps", "--depth", depth, "--camera", cam, "--out", tmp_path / "o.png",
                       "--config", config)
         assert result.exit_code == 2, result.output
-        assert "AntipodalConfig.max_width must be positive, got -1" in result.output, result.output
+        assert "max_width must be > 0 and <= 0.5 (m), got -1" in result.output, result.output
     ok = _run("grasps", "--depth", depth, "--camera", cam, "--out", tmp_path / "o.png", "--config",
               '{"max_width": 0.07, "max_candidates": 30}')
     assert ok.exit_code == 0 and "30 candidates" in ok.output, ok.output

@@ -131,7 +131,7 @@ def test_grasps_command_errors(scene_files, tmp_path):
     r = run(folder / "depth.npy", tmp_path / "partial.json")
     assert r.exit_code == 2 and "partial.json" in r.output and "height" in r.output
     r = run(folder / "depth.npy", extra=("--checkpoint", str(tmp_path / "none.pt")))
-    assert r.exit_code == 2 and "checkpoint not found" in r.output
+    assert r.exit_code == 2 and "none.pt: checkpoint file not found" in r.output
     assert not (tmp_path / "x.png").exists()
 
 
@@ -175,6 +175,6 @@ def test_grasps_command_refuses_a_bad_out_path_before_any_work(scene_files, tmp_
     folder, _, _ = scene_files
     base = ["grasps", "--depth", str(folder / "depth.npy"), "--camera", str(folder / "camera.json")]
     r = CliRunner().invoke(app, [*base, "--out", str(tmp_path)])
-    assert r.exit_code == 2 and "is a directory" in r.output
+    assert r.exit_code == 2 and "is a folder; pass a file name" in r.output
     r = CliRunner().invoke(app, [*base, "--out", str(tmp_path / "grasps.jpg")])
     assert r.exit_code == 2 and ".png" in r.output and not (tmp_path / "grasps.jpg").exists()

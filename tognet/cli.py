@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
+import os
 import sys
 
 import typer
@@ -45,11 +46,37 @@ def _register_all() -> None:
 
 _register_all()
 
+#: click's base class of usage errors, as the click typer bundles spells it (typer exports a subclass).
+_CLICK_EXCEPTION: type[Exception] = next(
+    c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException"
+)
 
-def main() -> None:
-    """Entry point of the ``tognet`` console script."""
+
+def main(argv: list[str] | None = None) -> None:
+    """Entry point of the ``tognet`` console script (``argv``: the arguments, default ``sys.argv[1:]``).
+
+    A usage error (an unknown option, a missing argument, a value out of its range) is one line too,
+    ``error: <what> (see: tognet <command> --help)``, exit status 2, like the commands' own errors."""
     try:
-        app()
+        code = app(args=argv, prog_name="tognet", standalone_mode=False)
+    except _CLICK_EXCEPTION as exc:
+        if type(exc).__name__ == "NoArgsIsHelpError":  # typer's rich help is already printed
+            text = exc.format_message()
+            if text.strip():
+                print(text, file=sys.stderr)
+            raise SystemExit(2) from None
+        ctx = getattr(exc, "ctx", None)
+        where = ctx.command_path if ctx is not None else "tognet"
+        message = " ".join(exc.format_message().replace("Value error, ", "").split())
+        print(f"error: {message} (see: {where} --help)", file=sys.stderr)
+        raise SystemExit(exc.exit_code) from None
+    except typer.Abort:
+        print("aborted", file=sys.stderr)
+        raise SystemExit(1) from None
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         raise SystemExit(130) from None
+    except BrokenPipeError:  # `tognet ... | head`: the reader has all it wanted
+        sys.stdout = open(os.devnull, "w")  # noqa: SIM115 (no flush of the closed pipe at exit)
+        raise SystemExit(1) from None
+    raise SystemExit(code if isinstance(code, int) else 0)

@@ -1,9 +1,22 @@
-"""Helpers shared by the subcommands: turn expected errors into one clear line and exit status 2."""
+"""Helpers shared by the subcommands: turn expected errors into one clear line and exit status 2.
+
+The one place where a command's user-fixable errors become one line: :func:`user_errors` wraps every
+command. It prints ``error: <message>`` for the library's own errors (:class:`TognetError`,
+:class:`ConfigError`, ``ValueError``) and turns any operating-system error on a file (missing, permission,
+a file where a folder is wanted, a full disk, ...) into one line that names the command's option or
+argument holding the path and what to do (:func:`os_error_message`). Output paths are checked before any
+long work by :func:`out_file` and :func:`out_folder`, and counts that cannot fit by :func:`check_disk`.
+"""
 
 from __future__ import annotations
 
+import errno
 import functools
-from collections.abc import Callable
+import inspect
+import os
+import shutil
+import tempfile
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -15,7 +28,7 @@ from tognet.errors import TognetError
 F = TypeVar("F", bound=Callable[..., Any])
 
 #: Exceptions whose message is written for the user; anything else is a bug and keeps its traceback.
-USER_ERRORS: tuple[type[BaseException], ...] = (TognetError, ConfigError, FileNotFoundError, ValueError)
+USER_ERRORS: tuple[type[BaseException], ...] = (TognetError, ConfigError, OSError, ValueError)
 
 
 #: ``--workers``, ``--ray`` and ``--ray-address`` of the commands that run jobs (collection, evaluation).
@@ -56,39 +69,243 @@ def task_models(pairs: list[str]) -> dict[str, Path]:
     return out
 
 
-def user_errors(func: F) -> F:
-    """Decorator for a command: print ``error: <message>`` and exit 2 on a user-facing error."""
+def _param_names(func: Callable[..., Any]) -> dict[str, str]:
+    """{parameter: how the user spells it} for a typer command: ``--out`` for an option, ``OUT`` for an
+    argument."""
+    names: dict[str, str] = {}
+    for name, param in inspect.signature(func).parameters.items():
+        info = param.default
+        if isinstance(info, typer.models.OptionInfo):
+            decls = [d for d in (info.param_decls or ()) if d.startswith("--")]
+            names[name] = decls[0].split("/")[0] if decls else "--" + name.replace("_", "-")
+        elif isinstance(info, typer.models.ArgumentInfo):
+            names[name] = info.metavar or name.upper()
+    return names
 
-    @functools.wraps(func)
-    def wrapper(*args: Any, **kwargs: Any) -> Any:
-        try:
-            return func(*args, **kwargs)
-        except USER_ERRORS as exc:
-            typer.secho(f"error: {exc}", err=True, fg=typer.colors.RED)
-            raise typer.Exit(code=2) from None
 
-    return wrapper  # type: ignore[return-value]
+def _paths(value: Any) -> list[Path]:
+    if isinstance(value, Path):
+        return [value]
+    if isinstance(value, list | tuple):
+        return [v for v in value if isinstance(v, Path)]
+    return []
+
+
+def _option_of(filename: str, kwargs: dict[str, Any], names: dict[str, str]) -> tuple[str, Path] | None:
+    """The option (and its value) whose path ``filename`` is, lies under, or lies above."""
+    target = Path(os.path.abspath(filename))
+    best: tuple[int, str, Path] | None = None
+    for key, value in kwargs.items():
+        for path in _paths(value):
+            given = Path(os.path.abspath(path))
+            if target == given or given in target.parents or target in given.parents:
+                score = len(given.parts)
+                if best is None or score > best[0]:
+                    best = (score, names.get(key, "--" + key.replace("_", "-")), path)
+    return None if best is None else (best[1], best[2])
 
 
 def _file_above(path: Path) -> Path | None:
     return next((p for p in path.parents if p.exists() and not p.is_dir()), None)
 
 
+def os_error_reason(exc: OSError, path: Path) -> str:
+    """What an operating-system error on ``path`` means for the user, and what to do, in a few words."""
+    code = exc.errno
+    if code == errno.EEXIST and path.exists() and not path.is_dir():
+        code = errno.ENOTDIR  # a folder was to be made where a file is: mkdir's parents=True says EEXIST
+        if _file_above(path / "x") is not None:
+            return f"{path} is a file, not a folder"
+    if code == errno.ENOTDIR:
+        above = _file_above(path)
+        if above is not None:
+            return f"{above} is a file, not a folder"
+        return "a part of the path is not a folder"
+    if code == errno.ENOENT:
+        return "no such file or folder"
+    if code in (errno.EACCES, errno.EPERM):
+        return "permission denied; choose a path you may read or write"
+    if code == errno.EEXIST:
+        return "already exists (and is in the way); remove it or choose another path"
+    if code == errno.EISDIR:
+        return "is a folder; give a file name"
+    if code in (errno.ENOSPC, errno.EDQUOT):
+        return "no space left on its disk; free some or choose another disk"
+    if code == errno.EROFS:
+        return "on a read-only file system; choose a writable folder"
+    if code == errno.ENAMETOOLONG:
+        return "the name is too long"
+    return (exc.strerror or type(exc).__name__).lower()
+
+
+def os_error_message(exc: OSError, where: tuple[str, Path] | None = None) -> str:
+    """One line for an operating-system error: the option and its value (when known), the file, the
+    reason in the user's terms."""
+    if exc.filename is None:
+        return str(exc)
+    path = Path(os.fsdecode(exc.filename))
+    reason = os_error_reason(exc, path)
+    if where is None:
+        return f"{path}: {reason}"
+    option, value = where
+    at = "" if Path(os.path.abspath(value)) == Path(os.path.abspath(path)) else f" ({path})"
+    return f"{option} {value}: {reason}{at}"
+
+
+def user_errors(func: F) -> F:
+    """Decorator for a command: print ``error: <message>`` (one line) and exit 2 on a user-facing error.
+
+    An operating-system error names the command's option whose path it concerns (see
+    :func:`os_error_message`)."""
+    names = _param_names(func)
+
+    @functools.wraps(func)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return func(*args, **kwargs)
+        except USER_ERRORS as exc:
+            if isinstance(exc, OSError) and exc.errno == errno.EPIPE:
+                raise  # the reader of stdout went away (`tognet ... | head`): tognet.cli.main ends quietly
+            if isinstance(exc, OSError) and exc.errno is not None:
+                where = None if exc.filename is None else _option_of(os.fsdecode(exc.filename), kwargs, names)
+                message = os_error_message(exc, where)
+            else:
+                message = str(exc)
+            message = " ".join(message.split()) or type(exc).__name__
+            typer.secho(f"error: {message}", err=True, fg=typer.colors.RED)
+            raise typer.Exit(code=2) from None
+
+    return wrapper  # type: ignore[return-value]
+
+
+def _existing_ancestor(path: Path) -> Path:
+    here = Path(os.path.abspath(path))
+    while not here.exists():
+        here = here.parent
+    return here
+
+
+def _probe_folder(base: Path, option: str, path: Path) -> None:
+    """Create and remove an empty folder in ``base``: what the OS says before any long work starts."""
+    try:
+        probe = tempfile.mkdtemp(prefix=".tognet-probe-", dir=base)
+    except OSError as exc:
+        raise TognetError(f"{option} {path}: cannot write in {base}: {os_error_reason(exc, base)}") from None
+    os.rmdir(probe)
+
+
 def out_folder(path: Path, option: str = "--out") -> Path:
-    """``path`` checked as a folder to write into: a file there (or above it) is a one-line user error."""
+    """``path`` checked as a folder to write into, before any work: a file there (or above it), or a place
+    the user may not write, is a one-line user error. Nothing is created."""
     if path.exists() and not path.is_dir():
-        raise TognetError(f"{option} {path}: exists and is not a folder; pass a folder")
+        raise TognetError(f"{option} {path}: exists and is not a folder (it is a file); pass a folder")
     above = _file_above(path)
     if above is not None:
         raise TognetError(f"{option} {path}: {above} is a file, not a folder")
+    _probe_folder(_existing_ancestor(path), option, path)
     return path
 
 
-def out_file(path: Path, option: str = "--out") -> Path:
-    """``path`` checked as a file to write: a folder there, or a file above it, is a one-line user error."""
+def out_file(path: Path, option: str = "--out", suffix: str | Iterable[str] | None = None) -> Path:
+    """``path`` checked as a file to write, before any work: a folder there, a file above it, a wrong
+    suffix (when ``suffix`` is given) or a place the user may not write is a one-line user error."""
     if path.is_dir():
-        raise TognetError(f"{option} {path}: is a folder; pass a file name (e.g. {path / 'metrics.json'})")
+        example = path / ("metrics.json" if suffix is None else f"out{_first(suffix)}")
+        raise TognetError(f"{option} {path}: is a folder; pass a file name (e.g. {example})")
+    if suffix is not None:
+        allowed = (suffix,) if isinstance(suffix, str) else tuple(suffix)
+        if path.suffix.lower() not in allowed:
+            raise TognetError(f"{option} must name a {' or '.join(allowed)} file, got '{path}'")
     above = _file_above(path)
     if above is not None:
         raise TognetError(f"{option} {path}: {above} is a file, not a folder")
+    if path.exists():
+        try:
+            with open(path, "ab"):
+                pass
+        except OSError as exc:
+            raise TognetError(f"{option} {path}: cannot write it: {os_error_reason(exc, path)}") from None
+    else:
+        _probe_folder(_existing_ancestor(path.parent), option, path)
     return path
+
+
+def _first(suffix: str | Iterable[str]) -> str:
+    return suffix if isinstance(suffix, str) else next(iter(suffix))
+
+
+def in_file(path: Path, option: str, what: str = "file") -> Path:
+    """``path`` checked as an existing, readable file: missing, a folder or unreadable is one line."""
+    if path.is_dir():
+        raise TognetError(f"{option} {path}: is a folder; give the {what} itself")
+    if not path.exists():
+        raise TognetError(f"{option} {path}: {what} not found")
+    if not os.access(path, os.R_OK):
+        raise TognetError(f"{option} {path}: permission denied; it cannot be read")
+    return path
+
+
+def in_folder(path: Path, option: str, what: str = "folder") -> Path:
+    """``path`` checked as an existing folder: missing or a file is one line."""
+    if not path.exists():
+        raise TognetError(f"{option} {path}: {what} not found")
+    if not path.is_dir():
+        raise TognetError(f"{option} {path}: is a file; give the {what}")
+    return path
+
+
+def positive(value: float, option: str, what: str = "") -> float:
+    """``value`` checked to be a positive finite number: a one-line user error naming ``option``."""
+    if not (value > 0 and value < float("inf")):
+        detail = f" ({what})" if what else ""
+        raise TognetError(f"{option} must be a positive number{detail}, got {value}")
+    return value
+
+
+def human_bytes(n: float) -> str:
+    """``n`` bytes as a short figure (kB, MB, GB, TB; powers of 1000)."""
+    for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
+        if abs(n) < 1000 or unit == "PB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
+        n /= 1000
+    return f"{n:.1f} PB"  # pragma: no cover
+
+
+def available_memory() -> int:
+    """Bytes of memory available to a new allocation (Linux's MemAvailable; else the free pages)."""
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemAvailable:"):
+                return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return int(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        return 1 << 62
+
+
+def check_memory(option: str, count: int, bytes_each: float, what: str, label: str | None = None) -> None:
+    """Refuse ``count`` items held in memory at about ``bytes_each`` bytes each when the machine has not
+    that much available, before any work: one line with the estimate (``label`` replaces the opening
+    ``<option> <count>``)."""
+    need = count * bytes_each
+    have = available_memory()
+    if need > have:
+        raise TognetError(
+            f"{label or f'{option} {count}'}: would hold about {human_bytes(need)} in memory ({what}), but "
+            f"this machine has {human_bytes(have)} available; ask for fewer")
+
+
+def check_disk(option: str, count: int, bytes_each: float, folder: Path, what: str = "episode",
+               label: str | None = None) -> None:
+    """Refuse ``count`` items of about ``bytes_each`` bytes when the disk holding ``folder`` cannot take
+    them, before any is written: one line with the estimate and what is free (``label`` replaces the
+    opening ``<option> <count>``)."""
+    need = count * bytes_each
+    free = shutil.disk_usage(_existing_ancestor(folder)).free
+    if need > free:
+        raise TognetError(
+            f"{label or f'{option} {count}'}: would need about {human_bytes(need)} (about "
+            f"{human_bytes(bytes_each)} per {what}), but the disk holding {folder} has {human_bytes(free)} "
+            "free; ask for fewer")

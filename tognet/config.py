@@ -7,7 +7,12 @@ Declare a config like this::
 
     @dataclass(frozen=True)
     class CameraNoise(Config):
-        sigma: float = doc(0.001, "Std-dev of additive depth noise (m).")
+        sigma: float = doc(0.001, "Std-dev of additive depth noise (m).", ge=0)
+
+Values are range-checked when a config is made, loaded or replaced: ``gt``/``ge``/``lt``/``le`` bounds
+given to :func:`doc` (applied to every element of a tuple), numbers that are not finite, and seeds (a
+field named ``seed`` or ``*_seed``) below 0; a :meth:`Config.check` override adds checks that involve
+several fields. The error names the field (and the file it came from).
 """
 
 from __future__ import annotations
@@ -15,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import json
+import math
 import types
 import typing
 from pathlib import Path
@@ -25,13 +31,81 @@ class ConfigError(ValueError):
     """A config file or dict does not match its declared type."""
 
 
-def doc(default: Any = dataclasses.MISSING, text: str = "", *, factory: Any = dataclasses.MISSING) -> Any:
-    """A dataclass field with a docstring (``text``), kept in the field's metadata."""
+class ConfigRangeError(ConfigError):
+    """A config value outside its field's range; ``field`` and ``rule`` let a loader name the file."""
+
+    def __init__(self, owner: str, field: str, rule: str) -> None:
+        super().__init__(f"{owner}.{field} {rule}")
+        self.field = field
+        self.rule = rule
+
+
+def doc(default: Any = dataclasses.MISSING, text: str = "", *, factory: Any = dataclasses.MISSING,
+        gt: float | None = None, ge: float | None = None, lt: float | None = None,
+        le: float | None = None) -> Any:
+    """A dataclass field with a docstring (``text``), kept in the field's metadata, and optional bounds
+    on its value (``gt`` > , ``ge`` >=, ``lt`` <, ``le`` <=; each element of a tuple or list)."""
     if not text:
         raise TypeError("every config field needs a docstring")
+    metadata: dict[str, Any] = {"doc": text}
+    bounds = {k: v for k, v in (("gt", gt), ("ge", ge), ("lt", lt), ("le", le)) if v is not None}
+    if bounds:
+        metadata["bounds"] = bounds
     if factory is not dataclasses.MISSING:
-        return dataclasses.field(default_factory=factory, metadata={"doc": text})
-    return dataclasses.field(default=default, metadata={"doc": text})
+        return dataclasses.field(default_factory=factory, metadata=metadata)
+    return dataclasses.field(default=default, metadata=metadata)
+
+
+def _numbers(value: Any) -> list[float]:
+    if isinstance(value, bool):
+        return []
+    if isinstance(value, int | float):
+        return [value]
+    if isinstance(value, tuple | list):
+        return [v for item in value for v in _numbers(item)]
+    return []
+
+
+def _rule(bounds: dict[str, float]) -> str:
+    if set(bounds) == {"gt"} and bounds["gt"] == 0:
+        return "must be positive"
+    if set(bounds) == {"ge"} and bounds["ge"] == 0:
+        return "must be 0 or more"
+    low = f"> {bounds['gt']:g}" if "gt" in bounds else (f">= {bounds['ge']:g}" if "ge" in bounds else "")
+    high = f"< {bounds['lt']:g}" if "lt" in bounds else (f"<= {bounds['le']:g}" if "le" in bounds else "")
+    return "must be " + " and ".join(x for x in (low, high) if x)
+
+
+def check_ranges(config: Any) -> None:
+    """Raise :class:`ConfigRangeError` for the first field of ``config`` (a dataclass) out of its range:
+    its :func:`doc` bounds, a number that is not finite, a negative seed."""
+    owner = type(config).__name__
+    for f in dataclasses.fields(config):
+        value = getattr(config, f.name)
+        numbers = _numbers(value)
+        if not numbers:
+            continue
+        shown = value if not isinstance(value, list) else tuple(value)
+        for x in numbers:
+            if not math.isfinite(x):
+                raise ConfigRangeError(owner, f.name, f"must be a finite number, got {shown}")
+        bounds = f.metadata.get("bounds", {})
+        if (f.name == "seed" or f.name.endswith("_seed")) and not bounds:
+            bounds = {"ge": 0}
+        for x in numbers:
+            low = ("gt" in bounds and not x > bounds["gt"]) or ("ge" in bounds and not x >= bounds["ge"])
+            high = ("lt" in bounds and not x < bounds["lt"]) or ("le" in bounds and not x <= bounds["le"])
+            if low or high:
+                unit = _unit(f.metadata.get("doc", ""))
+                raise ConfigRangeError(owner, f.name, f"{_rule(bounds)}{unit}, got {shown}")
+
+
+def _unit(text: str) -> str:
+    """The unit a field's docstring gives in its first parentheses, as ' (m)', if it looks like one."""
+    start = text.find("(")
+    end = text.find(")", start)
+    inside = text[start + 1:end] if start >= 0 and end > start else ""
+    return f" ({inside})" if inside and len(inside) <= 12 else ""
 
 
 def _convert(value: Any, annotation: Any, where: str) -> Any:
@@ -49,8 +123,12 @@ def _convert(value: Any, annotation: Any, where: str) -> Any:
                 continue
             try:
                 return _convert(value, arg, where)
+            except ConfigRangeError:
+                raise
             except ConfigError as exc:
                 errors.append(str(exc))
+        if len(errors) == 1:
+            raise ConfigError(errors[0])
         raise ConfigError(f"{where}: {value!r} matches none of {annotation}")
     if origin is typing.Literal:
         if value not in args:
@@ -108,6 +186,12 @@ def _from_dict(cls: type, data: dict[str, Any], where: str) -> Any:
     kwargs = {name: _convert(value, hints[name], f"{where}.{name}") for name, value in data.items()}
     try:
         return cls(**kwargs)
+    except ConfigRangeError as exc:
+        raise ConfigError(f"{where}.{exc.field} {exc.rule}") from None
+    except ConfigError:
+        raise
+    except ValueError as exc:  # a config's own __post_init__ check: say where the value came from
+        raise ConfigError(f"{where}: {exc}") from None
     except TypeError as exc:
         raise ConfigError(f"{where}: {exc}") from exc
 
@@ -125,7 +209,14 @@ def _to_jsonable(value: Any) -> Any:
 
 
 class Config:
-    """Mixin for dataclass configs: strict dict/JSON round-trip and self-description."""
+    """Mixin for dataclass configs: strict dict/JSON round-trip, range checks and self-description."""
+
+    def __post_init__(self) -> None:
+        check_ranges(self)
+        self.check()
+
+    def check(self) -> None:
+        """Checks that involve several fields (override; raise :class:`ConfigRangeError`)."""
 
     def to_dict(self) -> dict[str, Any]:
         """The config as plain JSON-compatible data."""
@@ -150,6 +241,8 @@ class Config:
     def load(cls, path: str | Path) -> Self:
         """Read a JSON config; a missing file, bad JSON or mismatched key raises ConfigError."""
         path = Path(path)
+        if path.is_dir():
+            raise ConfigError(f"{path}: is a folder, not a {cls.__name__} JSON file")
         if not path.is_file():
             raise ConfigError(f"config file not found: {path}")
         try:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import typer
 
@@ -11,10 +12,42 @@ from tognet.cliutil import (
     RAY_HELP,
     TASKS_HELP,
     WORKERS_HELP,
+    check_disk,
+    check_memory,
     out_folder,
     task_list,
     user_errors,
 )
+
+#: Disk bytes one collected trial takes at least (a shard's compressed columns; 330 B measured).
+EPISODE_BYTES = 250.0
+#: Memory one planned job takes while a round runs (its record, the to-do list, the store's entry).
+JOB_BYTES = 1000.0
+
+
+def check_pipeline_size(cfg: Any, preset: str, tasks: list[str], out: Path) -> None:
+    """Refuse a preset whose objects and rounds cannot fit on the disk of ``out`` or in memory, before
+    anything is generated: the reason names the preset's numbers."""
+    from tognet.objects.cli import OBJECT_BYTES, RECORD_BYTES
+
+    objects = sum(cfg.objects.values())
+    label = f"--preset {preset}: {objects} objects"
+    check_disk("--preset", objects, OBJECT_BYTES, out, "object", label=label)
+    check_memory("--preset", objects, RECORD_BYTES, "the objects' records", label=label)
+    rounds = [cfg.grasp_round, *(rc for t in tasks for rc in cfg.rounds_for(t))]
+    per_job = cfg.collect.scenes_per_job * cfg.collect.trials_per_scene
+    trials = sum(rc.episodes for rc in rounds)
+    check_disk("--preset", trials, EPISODE_BYTES, out, "trial",
+               label=f"--preset {preset}: {trials} trials in its rounds for {', '.join(tasks)}")
+    largest = max(rc.episodes for rc in rounds)
+    check_memory("--preset", -(-largest // per_job), JOB_BYTES, "its job list",
+                 label=f"--preset {preset}: a round of {largest} trials")
+
+
+def check_round_size(option: str, episodes: int, per_job: int, out: Path) -> None:
+    """Refuse a round that cannot fit on the disk of ``out`` or in memory, before anything is written."""
+    check_disk(option, episodes, EPISODE_BYTES, out, "trial")
+    check_memory(option, -(-episodes // per_job), JOB_BYTES, "the round's job list")
 
 
 @user_errors
@@ -27,9 +60,12 @@ def collect_cmd(
                                help="nms_uniform (round 1) or epsilon_greedy (needs --task-model)."),
     round_index: int = typer.Option(1, "--round", min=0, help="Round number (part of every seed)."),
     grasp_model: Path | None = typer.Option(None, "--grasp-model",
-                                            help="Grasp-only checkpoint ranking the NMS grasps by Q_G."),
+                                            help="The grasp-only checkpoint (task 'grasping', e.g. "
+                                            "tognet/models/grasping.pt) ranking the NMS grasps by Q_G."),
     task_model: Path | None = typer.Option(None, "--task-model",
-                                           help="Last round's checkpoint (CEM grasps, policy actions)."),
+                                           help="Last round's checkpoint of the same --task (CEM grasps, "
+                                           "policy actions; an action-search model runs the learned "
+                                           "search)."),
     config: Path | None = typer.Option(None, "--config", help="CollectConfig JSON file (else defaults)."),
     workers: int | None = typer.Option(None, "--workers", min=0, help=WORKERS_HELP),
     ray: bool = typer.Option(False, "--ray", help=RAY_HELP),
@@ -37,12 +73,16 @@ def collect_cmd(
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show the progress bar."),
 ) -> None:
     """Collect one round of self-supervised trials into a dataset folder (killed, it resumes when run
-    again with the same arguments)."""
+    again with the same arguments).
+
+    --out holds shard-<job>.npz files (one job: one object, a few scenes), manifest.json (counts, labels,
+    hashes), configs/ (the settings) and summary.json (the round's figures). Run again on the same --out with
+    the same arguments it resumes; other arguments are refused."""
     from tognet.collect.config import CollectConfig, RoundConfig
     from tognet.collect.rounds import collect_round
     from tognet.jobs.workers import make_executor
     from tognet.objects.record import load_catalog
-    from tognet.tasks import SIM_TASKS
+    from tognet.tasks import GRASP_ONLY, SIM_TASKS
 
     if task not in SIM_TASKS:
         raise ValueError(f"unknown task '{task}'; known: {', '.join(SIM_TASKS)}")
@@ -50,12 +90,17 @@ def collect_cmd(
         raise ValueError(f"unknown policy '{policy}'; use nms_uniform or epsilon_greedy")
     if policy == "epsilon_greedy" and task_model is None:
         raise ValueError("--policy epsilon_greedy needs --task-model (the last round's best.pt)")
-    for path in (grasp_model, task_model):
-        if path is not None and not path.is_file():
-            raise FileNotFoundError(f"checkpoint not found: {path}")
     out_folder(out)
-    records = [r for folder in objects for r in load_catalog(folder)]
     cfg = CollectConfig.load(config) if config else CollectConfig()
+    check_round_size("--episodes", episodes, cfg.scenes_per_job * cfg.trials_per_scene, out)
+    records = [r for folder in objects for r in load_catalog(folder)]
+    from tognet.model.checkpoint import check_model_role
+
+    if grasp_model is not None:
+        check_model_role(grasp_model, GRASP_ONLY, "--grasp-model",
+                         context=" (e.g. tognet/models/grasping.pt)")
+    if task_model is not None:
+        check_model_role(task_model, task, "--task-model", context=f" for --task {task}")
     executor = make_executor(workers, ray, ray_address)
     try:
         collect_round(task, round_index, records, RoundConfig(episodes=episodes, policy=policy), cfg, out,
@@ -81,12 +126,21 @@ def pipeline_cmd(
 ) -> None:
     """The self-supervision loop: objects, a grasp-only round and its Q_G model, then per task the rounds
     of collection (round 1 explores, later rounds epsilon-greedy with the last model), each followed by
-    training on all data so far. Writes summary.md / summary.json into --out."""
+    training on all data so far. Writes summary.md / summary.json into --out.
+
+    --out holds preset.json (the PipelineConfig), objects/<kind>-train/ (the training objects),
+    grasping/round0/data/ and grasping/model/ (the grasp-only round and its Q_G model), and per task
+    <task>/round<k>/data/ (shards, manifest.json, summary.json: the round's figures) and
+    <task>/round<k>/model/ (best.pt, last.pt, metrics.json, curves.png), then summary.json and summary.md.
+    --resume continues a run in --out from where it stopped (the same preset); it is refused when --out
+    holds no run, and a run is never restarted over an existing one without it."""
     from tognet.collect.config import load_preset
     from tognet.collect.pipeline import run_pipeline
 
     tasks = task_list(task)
+    out_folder(out)
     cfg = load_preset(preset)
+    check_pipeline_size(cfg, preset, tasks, out)
     run_pipeline(cfg, tasks, out, workers=workers, ray=ray, ray_address=ray_address, resume=resume,
                  progress=progress, log=typer.echo)
     typer.echo(f"summary: {out / 'summary.md'}")
@@ -99,9 +153,14 @@ def export_cmd(
     command: str | None = typer.Option(None, "--command", help="The command that made the run (recorded)."),
 ) -> None:
     """Copy a finished run's final models (the grasp-only model and each task's last round) with their
-    summaries: how they were trained, per-round collection figures, held-out metrics, training curves."""
+    summaries: how they were trained, per-round collection figures, held-out metrics, training curves.
+
+    Writes grasping.pt and <task>.pt (the last round's best.pt) into --out, each with <name>.json (the
+    preset, every round's collection summary and held-out metrics, the training history, the command):
+    the layout of tognet/models/. Nothing is written unless every model of the run is there."""
     from tognet.collect.pipeline import export_models
 
+    out_folder(out)
     for path in export_models(run, out, command):
         typer.echo(f"wrote {path} and {path.with_suffix('.json').name}")
 

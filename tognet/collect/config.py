@@ -15,7 +15,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Literal
 
-from tognet.config import Config, ConfigError, doc
+from tognet.config import Config, ConfigError, ConfigRangeError, doc
 from tognet.grasping.antipodal import AntipodalConfig
 from tognet.grasping.crops import CropConfig
 from tognet.model.config import TrainConfig
@@ -34,11 +34,13 @@ class CollectConfig(Config):
         8,
         "Trials run from one settled scene (state save/restore): a scene (drop, settle, depth image, "
         "candidates, model scores) costs about as much as one trial, so several trials share it.",
+        ge=1,
     )
     scenes_per_job: int = doc(
         4,
         "Scenes in one job (one object, one shard). A job is the unit of work, of resumption and of loss "
         "when a worker dies: small enough to lose little, large enough that a shard is not tiny.",
+        ge=1,
     )
     seed: int = doc(0, "Root seed: every scene and trial seed derives from (seed, task, round, job, scene).")
     sim: SimConfig = doc(factory=SimConfig, text="The simulated world and both tasks' set-ups.")
@@ -59,16 +61,17 @@ class CollectConfig(Config):
 class RoundConfig(Config):
     """One round: how many trials, which policy, how long to train afterwards."""
 
-    episodes: int = doc(1000, "Trials to run (rounded up to whole jobs).")
+    episodes: int = doc(1000, "Trials to run (rounded up to whole jobs).", ge=1)
     policy: RoundPolicy = doc(
         "nms_uniform",
         "'nms_uniform': NMS modes of the candidates ranked by grasp quality, uniform actions over the "
         "task's box (round 1); 'epsilon_greedy': CEM on the last model's Q_T and its action mean plus "
         "noise, with epsilon exploration (rounds 2+).",
     )
-    epochs: int = doc(10, "Training epochs after the round (on all data so far, warm-started).")
+    epochs: int = doc(10, "Training epochs after the round (on all data so far, warm-started).", ge=1)
     expert_actions: float | None = doc(
-        None, "Replaces ``collect.policy.expert_actions`` in this round (None: keep it)."
+        None, "Replaces ``collect.policy.expert_actions`` in this round (None: keep it).",
+        ge=0, le=1,
     )
 
     def collect_config(self, config: CollectConfig) -> CollectConfig:
@@ -111,9 +114,29 @@ class PipelineConfig(Config):
         text="Per-task replacement of ``train`` (a whole TrainConfig; fields left out take their defaults).",
     )
     object_workers: int | None = doc(
-        None, "Processes generating objects (None: the collection's worker count)."
+        None, "Processes generating objects (None: the collection's worker count).",
+        ge=0,
     )
 
+    def check(self) -> None:
+        """Object counts of known kinds, at least one object, and task rounds that can run in order (the
+        first explores: an epsilon-greedy round needs the model of a round before it)."""
+        for kind, count in self.objects.items():
+            if kind not in ("primitive", "complex"):
+                raise ConfigRangeError("PipelineConfig", "objects",
+                                       f"has an unknown kind {kind!r} (primitive, complex)")
+            if count < 0:
+                raise ConfigRangeError("PipelineConfig", "objects",
+                                       f"[{kind!r}] must be 0 or more, got {count}")
+        if sum(self.objects.values()) < 1:
+            raise ConfigRangeError("PipelineConfig", "objects", f"asks for no objects: {self.objects}")
+        for name, rounds in (("rounds", self.rounds), *((f"task_rounds.{t}", r) for t, r in
+                                                        self.task_rounds.items())):
+            if not rounds:
+                raise ConfigRangeError("PipelineConfig", name, "is empty: a task needs at least one round")
+            if rounds[0].policy == "epsilon_greedy":
+                raise ConfigRangeError("PipelineConfig", name, "starts with an epsilon_greedy round, which "
+                                       "needs the model of a round before it; start with nms_uniform")
 
     def rounds_for(self, task: str) -> tuple[RoundConfig, ...]:
         """The rounds of ``task``."""
@@ -139,5 +162,8 @@ def load_preset(name_or_path: str | Path) -> PipelineConfig:
             return PipelineConfig.load(path)
     path = Path(text)
     if not path.is_file():
+        if path.suffix.lower() == ".json" or "/" in text or path.is_dir():
+            raise ConfigError(f"--preset {text}: {'is a folder, not' if path.is_dir() else 'no such'} preset "
+                              f"file (a PipelineConfig JSON); or one of {', '.join(PRESETS)}")
         raise ConfigError(f"unknown preset {text!r}: use one of {', '.join(PRESETS)} or a JSON file's path")
     return PipelineConfig.load(path)

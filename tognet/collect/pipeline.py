@@ -52,8 +52,11 @@ def _check_out(out: Path, preset: PipelineConfig, resume: bool) -> None:
             diff = sorted(k for k in a if a[k] != b.get(k))
             raise PipelineError(f"{saved}: the run was started with another preset (differs in {diff}); "
                                 "resume with the same preset or use another --out")
-    elif resume and out.is_dir() and any(out.iterdir()):
-        raise PipelineError(f"{out}: no preset.json, so not a pipeline run to resume")
+    elif resume:  # as `train --resume` and `evaluate --resume`: nothing there, nothing to resume
+        what = "is not a pipeline run (no preset.json)" if out.is_dir() and any(out.iterdir()) else \
+            "holds no pipeline run"
+        raise PipelineError(f"--out {out} {what}, so there is nothing to resume; drop --resume to start "
+                            "a run")
     out.mkdir(parents=True, exist_ok=True)
     preset.save(saved)
 
@@ -217,16 +220,26 @@ def export_models(run: str | Path, out: str | Path, command: str | None = None) 
     round's best), each with ``<name>.json``: the preset, every round's collection summary, the trained
     model's held-out metrics and its per-epoch training history (for curves), and the command."""
     run, out = Path(run), Path(out)
+    if not run.is_dir():
+        raise PipelineError(f"{run}: {'is a file, not a' if run.exists() else 'no such'} pipeline run folder")
     summary_path = run / "summary.json"
     if not summary_path.is_file():
         raise PipelineError(f"{run}: no summary.json, so not a finished pipeline run")
-    summary = json.loads(summary_path.read_text())
-    preset = json.loads((run / "preset.json").read_text())
-    out.mkdir(parents=True, exist_ok=True)
+
+    def read(path: Path) -> Any:
+        if not path.is_file():
+            raise PipelineError(f"{path}: missing, so {run} is not a finished pipeline run")
+        try:
+            return json.loads(path.read_text())
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise PipelineError(f"{path}: not valid JSON ({exc})") from None
+
+    summary = read(summary_path)
+    preset = read(run / "preset.json")
     written = []
 
     def history(model_dir: Path) -> list[dict[str, Any]]:
-        metrics = json.loads((model_dir / "metrics.json").read_text())
+        metrics = read(model_dir / "metrics.json")
         keep = ("epoch", "train", "val", "seconds")
         rows = []
         for h in metrics.get("history", []):
@@ -245,9 +258,13 @@ def export_models(run: str | Path, out: str | Path, command: str | None = None) 
         final = run / task / f"round{rows[-1]['round']}" / "model" / "best.pt"
         rounds = [{**row, "history": history(run / task / f"round{row['round']}" / "model")} for row in rows]
         entries[task] = (final, {"rounds": rounds})
-    for name, (src, info) in entries.items():
+    if not entries:
+        raise PipelineError(f"{summary_path}: lists no models, so there is nothing to export")
+    for name, (src, _info) in entries.items():  # everything checked before anything is written
         if not src.is_file():
             raise PipelineError(f"{src}: missing; the run did not finish {name}")
+    out.mkdir(parents=True, exist_ok=True)
+    for name, (src, info) in entries.items():
         dst = out / f"{name}.pt"
         shutil.copyfile(src, dst)
         doc = {"name": name, "preset": preset, "command": command, "source_run": str(run),

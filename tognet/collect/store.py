@@ -55,7 +55,10 @@ class RoundStore:
             manifest["collection"] = self.meta
         else:
             old = manifest.get("collection")
-            if manifest.get("task") != task or old != json.loads(json.dumps(self.meta)):
+            if manifest.get("task") != task:
+                raise DatasetError(f"{self.folder / MANIFEST}: holds a dataset of task "
+                                   f"{manifest.get('task')!r}, not {task!r}; use another folder")
+            if old != json.loads(json.dumps(self.meta)):
                 raise DatasetError(
                     f"{self.folder / MANIFEST}: holds another collection ({_differences(old, self.meta)}); "
                     "use another folder"

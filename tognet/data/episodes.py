@@ -87,7 +87,8 @@ def shard_paths(folder: str | Path) -> list[Path]:
     """The shard files of one dataset folder, from its manifest (or, without one, by file name)."""
     folder = Path(folder)
     if not folder.is_dir():
-        raise DatasetError(f"{folder}: dataset folder not found")
+        what = "is a file, not a dataset folder" if folder.exists() else "dataset folder not found"
+        raise DatasetError(f"{folder}: {what}")
     manifest = read_manifest(folder)
     if manifest is not None:
         listed = [folder / s["file"] for s in manifest["shards"]]

@@ -12,7 +12,7 @@ and z. The labels follow a rule a network can learn:
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -43,14 +43,25 @@ def action_rule(left: np.ndarray, right: np.ndarray) -> np.ndarray:
     ).astype(np.float32)
 
 
+#: Episodes generated at a time by :func:`write_synthetic_dataset` (memory stays flat in the count).
+CHUNK = 4096
+
+
 def synthetic_episodes(
-    n: int, n_objects: int = 20, seed: int = 0, narrow_px: int = 8, noise: float = 0.002, invalid: float = 0.0
+    n: int, n_objects: int = 20, seed: int = 0, narrow_px: int = 8, noise: float = 0.002,
+    invalid: float = 0.0, chunk: int = 0, start: int = 0,
 ) -> EpisodeArrays:
-    """``n`` episodes over ``n_objects`` bar objects, labelled by the rule in the module docstring."""
+    """``n`` episodes over ``n_objects`` bar objects, labelled by the rule in the module docstring.
+
+    The objects depend on ``seed`` only; the episodes on (``seed``, ``chunk``): chunk 0 draws them from the
+    seed's own stream, a later chunk from its own, so a long dataset is made chunk by chunk.
+    ``start``: the index of the first episode (its scene seed and trial number)."""
     rng = np.random.default_rng(seed)
     obj_left = rng.integers(4, 31, size=n_objects)
     obj_right = rng.integers(4, 31, size=n_objects)
     obj_right = np.where(obj_right == obj_left, obj_right + 1, obj_right)
+    if chunk:
+        rng = np.random.default_rng([seed, chunk])
     obj = rng.integers(0, n_objects, size=n)
     left, right = obj_left[obj], obj_right[obj]
     width = rng.integers(3, 15, size=n)
@@ -72,19 +83,24 @@ def synthetic_episodes(
             s_g == 0, FAILURE_CODES["grasp_failed"], np.where(s_t == 0, FAILURE_CODES["task_failed"], 0))
         ).astype(np.int8),
         object_id=np.array([f"bar-{i:04d}" for i in obj]),
-        scene_seed=(seed * 1_000_003 + np.arange(n)).astype(np.int64),
-        trial=np.arange(n, dtype=np.int32),
+        scene_seed=(seed * 1_000_003 + start + np.arange(n)).astype(np.int64),
+        trial=(start + np.arange(n)).astype(np.int32),
     )
 
 
 def write_synthetic_dataset(
     out_dir: str | Path, task: str = "synthetic", n: int = 512, shard_size: int = 256, seed: int = 0,
-    configs: Mapping[str, Any] | None = None, **kwargs: Any,
+    configs: Mapping[str, Any] | None = None, progress: Callable[[int], None] | None = None, **kwargs: Any,
 ) -> Path:
-    """Write :func:`synthetic_episodes` as a dataset folder (appending if it exists) and return it.
-    ``configs`` are saved beside the data (see :class:`ShardWriter`)."""
-    episodes = synthetic_episodes(n, seed=seed, **kwargs)
+    """Write :func:`synthetic_episodes` as a dataset folder (appending if it exists) and return it,
+    :data:`CHUNK` episodes at a time (``progress(k)`` is called with each chunk's count). ``configs`` are
+    saved beside the data (see :class:`ShardWriter`)."""
     with ShardWriter(out_dir, task, {"round": 0, "policy": "synthetic", "seed": seed}, shard_size,
                      configs=configs) as writer:
-        writer.add_batch(**{name: getattr(episodes, name) for name in episodes.__dataclass_fields__})
+        for chunk, start in enumerate(range(0, n, CHUNK)):
+            k = min(CHUNK, n - start)
+            episodes = synthetic_episodes(k, seed=seed, chunk=chunk, start=start, **kwargs)
+            writer.add_batch(**{name: getattr(episodes, name) for name in episodes.__dataclass_fields__})
+            if progress is not None:
+                progress(k)
     return Path(out_dir)

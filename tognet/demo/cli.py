@@ -14,7 +14,10 @@ from pathlib import Path
 
 import typer
 
-from tognet.cliutil import out_folder, user_errors
+from tognet.cliutil import check_disk, check_memory, out_folder, user_errors
+
+#: The most scenes per scripted check ``--seeds`` takes (a few episodes each, about a second).
+MAX_SEEDS = 1000
 
 
 @user_errors
@@ -25,7 +28,8 @@ def demo(
         12, min=1, help="Realistic models to generate (the first N: tools, then mugs, bottles, cans...)."
     ),
     tasks: bool = typer.Option(True, help="Also run the task part: scripted checks, candidates, animation."),
-    seeds: int = typer.Option(5, min=1, help="Scenes per scripted check in the task part."),
+    seeds: int = typer.Option(5, min=1, max=MAX_SEEDS, help="Scenes per scripted check in the task part (at "
+                              f"most {MAX_SEEDS}: each is a few simulated episodes)."),
     gif: bool = typer.Option(True, help="Animate one hammering episode (needs MuJoCo's renderer: EGL)."),
     evaluate: bool = typer.Option(
         True, help="Evaluate every method with the shipped models on every task (a few minutes) and write "
@@ -33,11 +37,22 @@ def demo(
     ),
 ) -> None:
     """Objects of each kind with contact sheets, the tasks (does the grasp matter, candidates, a GIF), then
-    the shipped models against the paper's baselines on unseen objects, with a report."""
+    the shipped models against the paper's baselines on unseen objects, with a report.
+
+    --out gets objects/<kind>/ (the generated sets), sheet_<kind>.png (contact sheets), tasks/ (grasp
+    candidates on a simulated depth image, hammering.gif) and evaluation/ (report.html, results.json). Run
+    again it regenerates the objects and resumes the evaluation (settings unchanged)."""
     from tognet.objects import generate_set
+    from tognet.objects.cli import OBJECT_BYTES, RECORD_BYTES
+    from tognet.objects.generate import realistic_count
     from tognet.objects.sheet import write_contact_sheet
 
-    out_folder(out).mkdir(parents=True, exist_ok=True)
+    out_folder(out)
+    if realistic > realistic_count():
+        raise ValueError(f"--realistic {realistic}: there are {realistic_count()} realistic models")
+    check_disk("--count", 2 * count, OBJECT_BYTES, out, "object", label=f"--count {count} (x 2 kinds)")
+    check_memory("--count", count, RECORD_BYTES, "the objects' records")
+    out.mkdir(parents=True, exist_ok=True)
     sheets: list[Path] = []
     for kind in ("primitive", "complex", "realistic"):
         folder = out / "objects" / kind
@@ -48,9 +63,7 @@ def demo(
             shutil.rmtree(folder)  # the demo's own set from an earlier run: regenerate it from scratch
         n = count
         if kind == "realistic":
-            from tognet.objects.generate import realistic_count
-
-            n = min(realistic, realistic_count())
+            n = realistic
         records = generate_set(kind=kind, split="test", count=n, out=folder, progress=True)
         sheets.append(write_contact_sheet(folder, out / f"sheet_{kind}.png"))
         masses = [1000 * r.mass for r in records]

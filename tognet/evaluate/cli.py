@@ -11,11 +11,33 @@ from tognet.cliutil import (
     RAY_HELP,
     TASKS_HELP,
     WORKERS_HELP,
+    check_disk,
+    check_memory,
+    out_folder,
     task_list,
     task_models,
     user_errors,
 )
 from tognet.planning.method_names import METHOD_NAMES
+
+#: Disk bytes of one evaluated scene (every method's record on it; 2 kB per method measured) and of one
+#: generated test object (10-20 kB), at least.
+SCENE_BYTES = 5e3
+OBJECT_BYTES = 10e3
+#: Memory one planned job (one object, a few scenes) takes while the evaluation runs.
+JOB_BYTES = 1000.0
+
+
+def check_run_folder(run: Path, tasks: list[str]) -> None:
+    """``--run``: a `tognet pipeline` run folder holding ``<task>/round<k>`` of at least one of ``tasks``."""
+    if not run.exists():
+        raise FileNotFoundError(f"--run {run}: no such folder (a `tognet pipeline` run folder)")
+    if not run.is_dir():
+        raise ValueError(f"--run {run}: is a file; give a `tognet pipeline` run folder")
+    if not any((run / t / "round1").is_dir() for t in tasks):
+        rounds = " or ".join(f"{t}/round1" for t in tasks)
+        raise ValueError(f"--run {run}: holds no {rounds} folder, so it is not a `tognet pipeline` run of "
+                         "these tasks")
 
 
 @user_errors
@@ -42,8 +64,9 @@ def evaluate_cmd(
     scenes_per_job: int | None = typer.Option(None, "--scenes-per-job", min=1, help="Scenes per job (one "
                                               "object) (default: the config's, 2)."),
     config: Path | None = typer.Option(None, "--config", help="EvalConfig JSON file (else defaults)."),
-    run: Path | None = typer.Option(None, "--run", help="A `tognet pipeline` run folder whose per-round "
-                                    "training curves the report shows (default: the task model's run)."),
+    run: Path | None = typer.Option(None, "--run", help="A `tognet pipeline` run folder (with "
+                                    "<task>/round<k>/) whose per-round training curves the report shows "
+                                    "(default: the task model's run, when it lies in one)."),
     animations: bool = typer.Option(True, "--animations/--no-animations", help="GIFs of typical episodes "
                                     "(needs MuJoCo's renderer: EGL)."),
     workers: int | None = typer.Option(None, "--workers", min=0, help=WORKERS_HELP),
@@ -54,15 +77,33 @@ def evaluate_cmd(
 ) -> None:
     """Evaluate the methods on the same unseen test scenes: results.json (success rates with 95 % Wilson
     intervals, paired differences to TOG-Net), report.html and report.md in --out. Killed, it resumes
-    with --resume."""
+    with --resume.
+
+    --out holds evaluation.json (the settings; a resume must use the same), objects/<kind>-test/ (the
+    generated test objects), <task>/<category>/ (every job's records), results.json, report.html,
+    report.md, figures/ and gifs/. --resume continues the evaluation in --out and is refused when --out
+    holds none; without it an --out that already holds one is refused. Models default to the shipped
+    tognet/models/<task>.pt, grasping.pt and <task>_search.pt; each is checked to be of its task and head."""
     from tognet.evaluate.config import EvalConfig
     from tognet.evaluate.harness import run_evaluation
 
     tasks = task_list(task)
+    out_folder(out)
+    if run is not None:
+        check_run_folder(run, tasks)
     models = task_models(task_model)
     cfg = EvalConfig.load(config) if config else EvalConfig()
     if scenes_per_job is not None:
         cfg = cfg.replace(scenes_per_job=scenes_per_job)
+    groups = len(tasks) * ((len(category) or (0 if objects else 3)) + len(objects))
+    jobs = -(-episodes // cfg.scenes_per_job)
+    new_objects = min(jobs, test_objects or jobs) * (len(category) or (0 if objects else 3))
+    check_disk("--episodes", episodes * groups, SCENE_BYTES, out, "scene",
+               label=f"--episodes {episodes} (x {groups} task-category pairs)")
+    check_disk("--episodes", new_objects, OBJECT_BYTES, out, "test object",
+               label=f"--episodes {episodes}: {new_objects} new test objects")
+    check_memory("--episodes", jobs * groups, JOB_BYTES, "the job list",
+                 label=f"--episodes {episodes} (x {groups} task-category pairs)")
     run_evaluation(out, tasks, methods, categories=category, object_dirs=objects, episodes=episodes,
                    test_object_count=test_objects, grasp_model=grasp_model,
                    task_models=models, config=cfg,

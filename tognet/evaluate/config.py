@@ -22,6 +22,7 @@ class EvalConfig(Config):
         2,
         "Scenes in one job (one test object; every method runs on each scene): the unit of work and of "
         "resumption. Few, so that a category's episodes spread over many objects.",
+        ge=1,
     )
     seed: int = doc(0, "Root seed: scene seeds derive from (seed, task, category, job, scene).")
     trial_seed: int = doc(

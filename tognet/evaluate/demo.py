@@ -42,7 +42,8 @@ def run_demo(out: str | Path = "runs/demo/evaluation", *, episodes: int = DEMO_E
         return run_evaluation(out, tasks, "all",
                               categories=["pg-primitive", "pg-complex", "realistic"], episodes=episodes,
                               test_object_count=test_objects, grasp_model=grasp_model,
-                              task_models=task_models, config=demo_config(), workers=workers, resume=True,
+                              task_models=task_models, config=demo_config(), workers=workers,
+                              resume=(Path(out) / SETTINGS).is_file(),
                               progress=progress, run_dir=run_dir, log=log)
 
     try:

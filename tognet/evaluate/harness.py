@@ -117,6 +117,10 @@ def check_models(models: dict[str, Path]) -> None:
         if name != task and not model.action_conditioned:
             raise EvalError(f"{path}: given as the {name} model, but its task stream does not see the action "
                             "(train it with ArchConfig.task_head='action')")
+        if name == task and task != GRASP_ONLY and model.action_conditioned:
+            raise EvalError(f"{path}: an action-search model (task_head='action'), given as the {task} "
+                            f"TOG-Net model; pass it as --task-model {task}_search={path} "
+                            "(TOG-Net+ActionSearch)")
 
 
 def test_objects(category: str, count: int, out: Path, workers: int = 1, progress: bool = True,
@@ -165,8 +169,10 @@ def _check_out(out: Path, settings: dict[str, Any], resume: bool) -> None:
             diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
             raise SettingsChanged(f"{saved}: the evaluation was started with other settings (differs in "
                             f"{', '.join(diff)}); resume with the same ones or use another --out")
-    elif resume and out.is_dir() and any(out.iterdir()):
-        raise EvalError(f"{out}: no {SETTINGS}, so not an evaluation to resume")
+    elif resume:  # as `train --resume` and `pipeline --resume`: nothing there, nothing to resume
+        what = f"is not an evaluation (no {SETTINGS})" if out.is_dir() and any(out.iterdir()) else \
+            "holds no evaluation"
+        raise EvalError(f"--out {out} {what}, so there is nothing to resume; drop --resume to start one")
     out.mkdir(parents=True, exist_ok=True)
     saved.write_text(json.dumps(settings, indent=2) + "\n")
 

@@ -22,6 +22,27 @@ class DepthImageError(ValueError):
     """A depth image is not usable: wrong shape, dtype, units or all holes."""
 
 
+#: The fields of view (degrees) a depth camera's focal length may give: outside them the focal length is
+#: in the wrong unit (millimetres, metres) or belongs to another image size.
+FIELD_OF_VIEW_DEG = (5.0, 160.0)
+
+
+def focal_length_problem(name: str, focal: float, size: int) -> str | None:
+    """Why ``focal`` pixels is not a plausible focal length for an image ``size`` pixels across (its field
+    of view outside :data:`FIELD_OF_VIEW_DEG`), or None when it is."""
+    if not (np.isfinite(focal) and focal > 0):
+        return f"{name} must be a positive number of pixels, got {focal:g}"
+    fov = float(np.degrees(2 * np.arctan(size / (2 * focal))))
+    lo, hi = FIELD_OF_VIEW_DEG
+    if lo <= fov <= hi:
+        return None
+    f_lo = size / (2 * np.tan(np.radians(hi) / 2))
+    f_hi = size / (2 * np.tan(np.radians(lo) / 2))
+    return (f"{name} = {focal:g} px gives a {fov:.3g} deg field of view across {size} pixels; a depth "
+            f"camera's is {lo:g}-{hi:g} deg ({name} {f_lo:.0f}-{f_hi:.0f} px): focal lengths are in pixels, "
+            "for this image size")
+
+
 @dataclass(frozen=True)
 class CameraIntrinsics:
     """Pinhole intrinsics of a depth camera, in pixels."""

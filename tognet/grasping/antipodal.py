@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
-from tognet.config import Config, ConfigError, doc
+from tognet.config import Config, ConfigError, check_ranges, doc
 from tognet.geometry import Camera
 from tognet.grasping.depth import DepthScene, prepare_depth
 
@@ -39,7 +39,9 @@ class AntipodalConfig(Config):
     """Thresholds of the depth-image antipodal sampler."""
 
     friction_coef: float = doc(1.0, "Friction coefficient mu; the friction cone half angle is atan(mu).")
-    max_width: float = doc(0.08, "Gripper maximum opening (m): contacts farther apart are rejected.")
+    max_width: float = doc(
+        0.08, "Gripper maximum opening (m): contacts farther apart are rejected.", gt=0, le=0.5
+    )
     min_width: float = doc(0.005, "Minimum contact distance (m): closer pairs are rejected.")
     depth_grad_thresh: float = doc(
         0.0025, "Depth-gradient magnitude (m per pixel, central differences) above which a pixel is an edge."
@@ -132,6 +134,7 @@ class AntipodalConfig(Config):
     def __post_init__(self) -> None:
         """Refuse values the sampler cannot work with (ConfigError naming the field), instead of failing
         deep inside it or silently returning nothing."""
+        check_ranges(self)
         positive = ("friction_coef", "max_width", "depth_grad_thresh", "max_edge_pixels", "max_candidates",
                     "min_pixel_separation", "angle_bin", "normal_radius", "finger_width", "scan_step",
                     "max_contact_shift", "landing_spacing", "pad_height")

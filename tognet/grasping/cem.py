@@ -29,12 +29,14 @@ ScoreFn = Callable[[NDArray[np.float64]], NDArray[np.float64]]
 class CEMConfig(Config):
     """Cross-entropy method settings (Dex-Net 2.0's defaults)."""
 
-    iterations: int = doc(3, "Refit-and-resample iterations after scoring the initial grasps.")
-    samples: int = doc(64, "Grasps sampled from the mixture per iteration.")
-    elite_fraction: float = doc(0.25, "Fraction of the scored grasps kept as elites for the refit.")
-    components: int = doc(3, "Gaussian mixture components (fewer if there are few elites).")
-    em_iterations: int = doc(50, "Maximum EM iterations per refit.")
-    reg_covar: float = doc(1e-5, "Added to covariance diagonals (m^2) to keep them positive definite.")
+    iterations: int = doc(3, "Refit-and-resample iterations after scoring the initial grasps.", ge=0)
+    samples: int = doc(64, "Grasps sampled from the mixture per iteration.", ge=1)
+    elite_fraction: float = doc(
+        0.25, "Fraction of the scored grasps kept as elites for the refit.", gt=0, le=1
+    )
+    components: int = doc(3, "Gaussian mixture components (fewer if there are few elites).", ge=1)
+    em_iterations: int = doc(50, "Maximum EM iterations per refit.", ge=1)
+    reg_covar: float = doc(1e-5, "Added to covariance diagonals (m^2) to keep them positive definite.", gt=0)
     angle_radius: float = doc(
         0.05, "Metres per radian for the angle's circle embedding (weights angle vs position)."
     )

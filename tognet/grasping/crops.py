@@ -36,14 +36,15 @@ from tognet.grasping.depth import DepthScene, prepare_depth
 class CropConfig(Config):
     """Shape and metric extent of the grasp-aligned crops."""
 
-    size: int = doc(64, "Crop side in pixels (the task/action streams' input).")
+    size: int = doc(64, "Crop side in pixels (the task/action streams' input).", ge=4)
     extent: float = doc(
         0.6,
         "Crop side in metres: the 64 px crop covers 0.6 m (9.4 mm per pixel), its 32 px centre 0.3 m. Wide "
         "enough that the whole tool lies inside the crop from nearly every grasp (a far-end grasp must see "
         "the head it strikes with; benchmarks/crop_coverage.py, RESULTS.md).",
+        gt=0,
     )
-    center_size: int = doc(32, "Side of the centre crop (the grasp-quality stream's input).")
+    center_size: int = doc(32, "Side of the centre crop (the grasp-quality stream's input).", ge=1)
     table_z: float = doc(0.0, "World height (m) read for grid points that fall outside the image.")
     max_value: float | None = doc(
         0.3,

@@ -124,11 +124,12 @@ def render_grasps(
     nms_config: NMSConfig | None = None,
     use_cem: bool = False,
     cem_config: CEMConfig | None = None,
+    score_name: str = "scorer",
 ) -> tuple[GraspCandidates, np.ndarray, Path]:
     """Sample candidates on ``scene``, score them (``score_fn`` or the analytic quality), draw to ``out``.
 
     With ``use_cem`` (needs ``score_fn``) the cross-entropy method refines the grasp from the candidates
-    and its best grasp is drawn in red on top.
+    and its best grasp is drawn in red on top. ``score_name`` names the scorer in the picture's title.
     """
     if use_cem and score_fn is None:
         raise TognetError(
@@ -143,7 +144,7 @@ def render_grasps(
         keep = nms(cands.grasps, scores, nms_config or NMSConfig())
         cands, scores = cands.subset(keep), scores[keep]
     highlight = None
-    label = "analytic quality" if score_fn is None else "scorer"
+    label = "analytic quality" if score_fn is None else score_name
     if use_cem and score_fn is not None and len(cands):
         result = cem(score_fn, cands.grasps, cem_config or CEMConfig(), rng)
         highlight = result.best

@@ -31,12 +31,14 @@ class NMSConfig(Config):
         0.02,
         "Minimum distance (m, in the scaled grasp space) between kept grasps: a few tens of modes per tool "
         "(benchmarks/RESULTS.md).",
+        ge=0,
     )
     angle_scale: float = doc(
-        0.03, "Metres per radian of jaw-axis angle difference (0.03: a 60 degree turn counts like 3.1 cm)."
+        0.03, "Metres per radian of jaw-axis angle difference (0.03: a 60 degree turn counts like 3.1 cm).",
+        ge=0,
     )
     symmetric_jaw: bool = doc(True, "Angle difference modulo pi (phi and phi + pi are the same placement).")
-    max_keep: int | None = doc(None, "Keep at most this many grasps (None: all that survive).")
+    max_keep: int | None = doc(None, "Keep at most this many grasps (None: all that survive).", ge=1)
     min_score: float | None = doc(None, "Drop grasps scoring below this before suppression (None: keep all).")
 
 

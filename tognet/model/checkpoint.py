@@ -42,6 +42,7 @@ from tognet.errors import TognetError
 from tognet.io import atomic_writer
 from tognet.model.config import ArchConfig, TrainConfig
 from tognet.model.network import TOGNet
+from tognet.tasks import GRASP_ONLY
 
 FORMAT = "tognet-checkpoint"
 FORMAT_VERSION = 1
@@ -239,3 +240,28 @@ def describe(payload: dict[str, Any]) -> dict[str, Any]:
                                 and k not in buffers))
     out["resumable"] = payload.get("training") is not None
     return out
+
+
+def check_model_role(path: str | Path, task: str, option: str, *, action_search: bool | None = None,
+                     context: str = "") -> dict[str, Any]:
+    """Read the checkpoint ``path`` given as ``option`` and check it is a model of ``task`` (``grasping``:
+    the grasp-only model); with ``action_search`` True its task stream must see the action
+    (``ArchConfig.task_head='action'``), with False it must not. Returns the payload; a checkpoint that is
+    missing, unreadable, of another task or of the other head raises :class:`CheckpointError` naming the
+    option, the file and what was expected (``context``, e.g. ``" for --task hammering"``), before any
+    work."""
+    payload = load_checkpoint(path)
+    have = payload.get("task")
+    what = "the grasp-only model" if task == GRASP_ONLY else f"a {task} model"
+    if have != task:
+        found = "the grasp-only model (task 'grasping')" if have == GRASP_ONLY else f"a {have} model"
+        raise CheckpointError(f"{option} {path} is {found}; {option} must be {what}{context}")
+    head = payload["config_obj"].arch.task_head
+    if action_search is True and head != "action":
+        raise CheckpointError(f"{option} {path}: its task stream does not see the action "
+                              f"(task_head={head!r}); the action search needs a model trained with "
+                              "ArchConfig.task_head='action'")
+    if action_search is False and head == "action":
+        raise CheckpointError(f"{option} {path}: an action-search model (task_head='action'); {option} takes "
+                              "a TOG-Net model (task_head='policy')")
+    return payload

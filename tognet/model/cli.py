@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from tognet.cliutil import out_file, user_errors
+from tognet.cliutil import out_file, out_folder, user_errors
 
 model_app = typer.Typer(help="Inspect and evaluate trained TOG-Net checkpoints.", no_args_is_help=True)
 
@@ -19,17 +19,24 @@ def train_cmd(
     out: Path = typer.Option(..., "--out", help="Folder for checkpoints, metrics.json and curves.png."),
     config: Path | None = typer.Option(None, "--config", help="TrainConfig JSON file (defaults otherwise)."),
     epochs: int | None = typer.Option(None, "--epochs", min=1, help="Override the config's epochs."),
-    seed: int | None = typer.Option(None, "--seed", help="Override the config's seed."),
+    seed: int | None = typer.Option(None, "--seed", min=0, help="Override the config's seed."),
     device: str | None = typer.Option(None, "--device", help="'auto', 'cpu' or 'cuda' (overrides config)."),
     resume: bool = typer.Option(False, "--resume", help="Continue the run in --out from its last.pt."),
     init_from: Path | None = typer.Option(None, "--init-from",
                                           help="Warm start: weights and normalisation from this checkpoint."),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show tqdm progress bars."),
 ) -> None:
-    """Train a TOG-Net model for one task on episode data (validation split by object)."""
+    """Train a TOG-Net model for one task on episode data (validation split by object).
+
+    Writes into --out: last.pt (after every epoch, resumable), best.pt (the best validation epoch, what
+    planners load), metrics.json (per-epoch losses and metrics), curves.png, config.json (the TrainConfig)
+    and data.json (the shards trained on). --resume continues the run
+    in --out from its last.pt (refused when there is none); without it an --out that already holds a run is
+    refused."""
     from tognet.model.config import TrainConfig
     from tognet.model.train import train
 
+    out_folder(out)
     cfg = TrainConfig.load(config) if config else TrainConfig()
     changes = {k: v for k, v in (("epochs", epochs), ("seed", seed), ("device", device)) if v is not None}
     if changes:

@@ -70,15 +70,16 @@ class LossConfig(Config):
         "sum over episodes, scaled by 1/N). 'masked': each term averaged over its own masked subset "
         "(an empty subset contributes 0).",
     )
-    weight_grasp: float = doc(1.0, "Weight of the Q_G cross-entropy term (1 = the paper).")
-    weight_task: float = doc(1.0, "Weight of the Q_T|G cross-entropy term (1 = the paper).")
-    weight_action: float = doc(1.0, "Weight of the action term (1 = the paper).")
+    weight_grasp: float = doc(1.0, "Weight of the Q_G cross-entropy term (1 = the paper).", ge=0)
+    weight_task: float = doc(1.0, "Weight of the Q_T|G cross-entropy term (1 = the paper).", ge=0)
+    weight_action: float = doc(1.0, "Weight of the action term (1 = the paper).", ge=0)
     weight_progress: float = doc(
         0.5,
         "Weight of the graded-outcome term of an action-conditioned task stream (cross-entropy of the "
         "predicted progress against the trial's progress in [0, 1], over trials that held the tool and "
         "whose task grades): a trial that nearly worked says more than a bare 0. Unused by the paper's "
         "model.",
+        ge=0,
     )
 
 
@@ -88,15 +89,16 @@ class TrainConfig(Config):
 
     arch: ArchConfig = doc(factory=ArchConfig, text="Network architecture.")
     loss: LossConfig = doc(factory=LossConfig, text="Loss definition.")
-    epochs: int = doc(30, "Maximum number of passes over the training episodes.")
-    batch_size: int = doc(128, "Episodes per optimisation step.")
-    lr: float = doc(1e-3, "Adam learning rate.")
-    weight_decay: float = doc(1e-4, "Adam (L2) weight decay.")
-    lr_decay: float = doc(0.95, "Learning rate multiplied by this after every epoch.")
+    epochs: int = doc(30, "Maximum number of passes over the training episodes.", ge=1)
+    batch_size: int = doc(128, "Episodes per optimisation step.", ge=1)
+    lr: float = doc(1e-3, "Adam learning rate (0: no updates).", ge=0)
+    weight_decay: float = doc(1e-4, "Adam (L2) weight decay.", ge=0)
+    lr_decay: float = doc(0.95, "Learning rate multiplied by this after every epoch.", gt=0, le=1)
     val_fraction: float = doc(
-        0.1, "Fraction of the *objects* held out for validation (never split by episode)."
+        0.1, "Fraction of the *objects* held out for validation (never split by episode).",
+        ge=0, lt=1,
     )
-    patience: int = doc(5, "Early stopping: epochs without a better validation loss before stopping.")
+    patience: int = doc(5, "Early stopping: epochs without a better validation loss before stopping.", ge=1)
     monitor: Literal["loss", "classification"] = doc(
         "loss",
         "What early stopping and the best checkpoint watch on the validation objects: 'loss' (the whole "
@@ -104,16 +106,17 @@ class TrainConfig(Config):
         "action term dominates the loss, 'loss' stops as soon as the action regression stalls, before the "
         "task classifier has learnt.",
     )
-    min_delta: float = doc(1e-4, "Early stopping: smallest decrease of validation loss that counts.")
+    min_delta: float = doc(1e-4, "Early stopping: smallest decrease of validation loss that counts.", ge=0)
     seed: int = doc(0, "Seed of weight initialisation, batch order and the validation split.")
     num_threads: int = doc(
         1,
         "torch CPU threads (fixed, for determinism). 1 by default: on a 2-core machine shared with data "
         "collection, 2 threads slowed training steps several-fold; use 2 on an idle machine.",
+        ge=1,
     )
     deterministic: bool = doc(True, "torch.use_deterministic_algorithms(True) (CPU runs are reproducible).")
     device: str = doc("auto", "'auto' (CUDA when available, else CPU), 'cpu' or 'cuda'.")
-    eval_batch_size: int = doc(1024, "Episodes per forward pass during validation.")
+    eval_batch_size: int = doc(1024, "Episodes per forward pass during validation.", ge=1)
     crop_storage: Literal["float32", "float16"] = doc(
         "float32",
         "Deprecated and ignored (kept so that existing config files still load): training streams the "
@@ -125,5 +128,6 @@ class TrainConfig(Config):
         "Training episodes held in memory to shuffle batches (8 KiB each: 16384 = 128 MiB, whatever the "
         "dataset size). Shards are visited in a random order every epoch and each batch is drawn at random "
         "from the buffer; collected shards hold one object each, so the buffer must span many shards.",
+        ge=1,
     )
     skip_bad_shards: bool = doc(False, "Skip corrupt or truncated shards with a warning instead of failing.")

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from tognet.cliutil import user_errors
+from tognet.cliutil import check_disk, check_memory, out_file, out_folder, positive, user_errors
 
 objects_app = typer.Typer(
     name="objects",
@@ -15,6 +15,14 @@ objects_app = typer.Typer(
     "list a set's catalog and draw its contact sheet.",
     no_args_is_help=True,
 )
+
+
+#: Disk bytes of one generated object at least (PG-Primitive ~11 kB, PG-Complex ~17 kB, realistic ~19 kB).
+OBJECT_BYTES = 10e3
+#: Memory of one object's record (catalog entry) while a set is generated or read, roughly.
+RECORD_BYTES = 4e3
+#: The widest gripper opening ``objects stats --opening`` takes (m): wider is a unit mistake (cm or mm).
+MAX_OPENING = 0.5
 
 
 class Kind(StrEnum):
@@ -51,10 +59,22 @@ def generate(
         help="A GeneratorConfig JSON (e.g. another set's generator_config.json) instead of the defaults.",
     ),
 ) -> None:
-    """Generate objects (deterministic: the same kind/split/index gives the same files anywhere)."""
-    from tognet.objects.generate import GeneratorConfig, generate_set
+    """Generate objects (deterministic: the same kind/split/index gives the same files anywhere).
 
+    Writes one folder per object (``<kind>-<split>-<index>/``: object.xml, visual.obj, collision_*.obj)
+    and the set's catalog.json, catalog.csv and generator_config.json into --out."""
+    from tognet.objects.generate import GeneratorConfig, generate_set, realistic_count
+
+    if kind == Kind.realistic and split == Split.train:
+        raise ValueError("--kind realistic is a test set only (the realistic models are never trained "
+                         "on); pass --split test")
+    out_folder(out)
     cfg = GeneratorConfig.load(config) if config is not None else None
+    if kind == Kind.realistic and start + count > realistic_count():
+        raise ValueError(f"--count {count} --start {start}: there are {realistic_count()} realistic models "
+                         f"(use --count {max(realistic_count() - start, 0)} or less)")
+    check_disk("--count", count, OBJECT_BYTES, out, "object")
+    check_memory("--count", count, RECORD_BYTES, "the objects' records")
     records = generate_set(
         kind.value, split.value, count, out, start=start, progress=True, workers=workers, config=cfg
     )
@@ -93,10 +113,19 @@ def import_cmd(
     The other files are convex-decomposed and written. An object already in --out is kept: a file imported
     before unchanged is skipped, a changed one is refused unless --replace.
 
+    Writes into --out as `tognet objects generate` does: a folder per object (imported-<file stem>/:
+    object.xml, visual.obj, collision_*.obj) and the set's catalog.json and catalog.csv.
+
     Exit code: 0 if every file was imported (or skipped unchanged), 1 if any failed, 2 on a usage error.
     """
     from tognet.objects.importer import import_meshes
 
+    positive(scale, "--scale", "metres per file unit, e.g. 0.001 for millimetres")
+    positive(density, "--density", "kg/m^3, e.g. 1000 for water, 7800 for steel")
+    positive(friction, "--friction", "a sliding friction coefficient, e.g. 0.8")
+    if not src_dir.exists():
+        raise FileNotFoundError(f"SRC_DIR {src_dir}: mesh file or folder not found")
+    out_folder(out)
     report = import_meshes(src_dir, out, scale=scale, density=density, friction=friction, progress=True,
                            replace=replace)
     for record in report.records:
@@ -124,6 +153,7 @@ def sheet(
     """Draw a contact sheet: each object from above and from the side, with id, rule and mass."""
     from tognet.objects.sheet import write_contact_sheet
 
+    out_file(out, "--out", ".png")
     path = write_contact_sheet(set_dir, out, max_objects=max_objects)
     typer.echo(f"contact sheet: {path}")
 
@@ -163,6 +193,8 @@ def stats_cmd(
     from tognet.objects.record import load_catalog
     from tognet.objects.stats import object_stats, summary_lines
 
+    if opening > MAX_OPENING:
+        raise ValueError(f"--opening is in metres (0.01-{MAX_OPENING}), got {opening:g}; for 8 cm pass 0.08")
     records = load_catalog(set_dir)
     if not records:
         raise ValueError(f"{set_dir}: the catalog lists no objects")

@@ -32,6 +32,7 @@ from scipy import ndimage
 from tognet.config import Config, doc
 from tognet.errors import TognetError
 from tognet.geometry import CameraIntrinsics, DepthImageError
+from tognet.geometry.camera import focal_length_problem
 from tognet.geometry.transforms import invert_pose, make_pose
 
 INTRINSICS_KEYS = ("width", "height", "fx", "fy", "cx", "cy")
@@ -120,6 +121,10 @@ def load_intrinsics(source: str | Path | dict[str, Any] | CameraIntrinsics) -> C
                          fy=float(values["fy"]), cx=float(values["cx"]), cy=float(values["cy"]))
     if k.fx <= 0 or k.fy <= 0:
         raise CameraFileError(f"{where}: fx and fy must be positive, got {k.fx:g}, {k.fy:g}")
+    for name, focal, size in (("fx", k.fx, k.width), ("fy", k.fy, k.height)):
+        problem = focal_length_problem(name, focal, size)
+        if problem is not None:
+            raise CameraFileError(f"{where}: {problem}")
     if not (-0.5 <= k.cx <= k.width - 0.5 and -0.5 <= k.cy <= k.height - 0.5):
         raise CameraFileError(
             f"{where}: principal point ({k.cx:g}, {k.cy:g}) lies outside the {k.width} x {k.height} image: "

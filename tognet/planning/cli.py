@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from tognet.cliutil import user_errors
+from tognet.cliutil import out_file, user_errors
 from tognet.tasks import TASK_NAMES, reference_points
 
 DEPTH_SUFFIXES = (".png", ".npy", ".npz")
@@ -35,17 +35,8 @@ def _vec(values: list[float] | tuple[float, ...], digits: int = 4) -> str:
 
 
 def _check_output(path: Path | None, suffix: str, option: str) -> None:
-    if path is None:
-        return
-    if path.is_dir():
-        raise ValueError(f"{option} {path} is a folder; give a {suffix} file name")
-    if path.suffix.lower() != suffix:
-        raise ValueError(f"{option} must name a {suffix} file, got '{path}'")
-    parent = path.parent
-    while not parent.exists():
-        parent = parent.parent
-    if not parent.is_dir():
-        raise ValueError(f"{option} {path}: {parent} is a file, not a folder")
+    if path is not None:
+        out_file(path, option, suffix)  # a folder, a wrong suffix, a file above it, a place not writable
 
 
 @user_errors
@@ -72,7 +63,7 @@ def plan_cmd(
         None, "--object", metavar="INDEX|U,V", help="The object to plan on, when the image shows several: "
         "its index in the plan's list of objects, or a pixel U,V on it. Default: the largest near the "
         "image's centre that looks like something to pick up."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the sampler and the search."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Seed of the sampler and the search."),
     config: Path | None = typer.Option(None, "--config", help="UserPlanConfig JSON (defaults otherwise)."),
 ) -> None:
     """Plan a task-oriented grasp and the task's motion on one depth image from your own camera.

@@ -18,14 +18,17 @@ class OracleConfig(Config):
         8,
         "NMS modes of the antipodal candidates (ranked by antipodal quality) tried, each held both ways "
         "round (phi and phi + pi): up to twice this many grasps.",
+        ge=1,
     )
     seeds: int = doc(
         2,
         "Search trials per (grasp, action) pair, on execution-noise seeds the evaluation never uses; the "
         "first pair that succeeds on all of them is taken at once.",
+        ge=1,
     )
     max_trials: int = doc(
-        96, "Search trials per plan at most (probes included); then the best pair found so far is taken."
+        96, "Search trials per plan at most (probes included); then the best pair found so far is taken.",
+        ge=1,
     )
 
 

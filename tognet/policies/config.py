@@ -19,7 +19,8 @@ class ActionSearchConfig(Config):
         "working region of the box for most grasps at a fraction of a millisecond per candidate.",
     )
     local_fraction: float = doc(
-        0.5, "Share of the rating actions drawn around the candidate's action mean (the rest: the box)."
+        0.5, "Share of the rating actions drawn around the candidate's action mean (the rest: the box).",
+        ge=0, le=1,
     )
     local_std: tuple[float, float, float, float] = doc(
         (0.02, 0.02, 0.01, 0.08),
@@ -32,10 +33,10 @@ class ActionSearchConfig(Config):
         "each candidate's own action mean (the policy head, fitted to successful actions), a region the "
         "data covers densely: a learned Q maximised far from its data finds its own errors.",
     )
-    refine_grasps: int = doc(4, "Best-rated candidates whose action is then searched by CEM.")
-    iterations: int = doc(3, "CEM refits of the action (the paper's grasp CEM has 3).")
-    samples: int = doc(64, "Actions drawn per CEM iteration.")
-    elite_fraction: float = doc(0.25, "Share of the drawn actions kept to refit the Gaussian.")
+    refine_grasps: int = doc(4, "Best-rated candidates whose action is then searched by CEM.", ge=0)
+    iterations: int = doc(3, "CEM refits of the action (the paper's grasp CEM has 3).", ge=0)
+    samples: int = doc(64, "Actions drawn per CEM iteration.", ge=1)
+    elite_fraction: float = doc(0.25, "Share of the drawn actions kept to refit the Gaussian.", gt=0, le=1)
     min_std: tuple[float, float, float, float] = doc(
         (0.004, 0.004, 0.002, 0.02),
         "Floor of the CEM's std-dev per dimension, so the search does not collapse onto one draw.",
@@ -53,7 +54,9 @@ class ActionSearchConfig(Config):
         "Std-dev of those perturbations (a_x, a_y, a_z m; a_phi rad): a little more than the execution "
         "noise on the start pose, the margin an action should keep from a failure region.",
     )
-    robust_candidates: int = doc(16, "How many of the final CEM candidates (best first) are averaged so.")
+    robust_candidates: int = doc(
+        16, "How many of the final CEM candidates (best first) are averaged so.", ge=1
+    )
     pessimism: float = doc(
         1.0,
         "How many std-devs of the members' disagreement (ArchConfig.action_members) are taken off an "
@@ -73,11 +76,14 @@ class PolicyConfig(Config):
     settings the planners use too."""
 
     epsilon_grasp: float = doc(
-        0.2, "epsilon_1: probability of an NMS grasp instead of the model's CEM grasp (rounds 2+; paper 0.2)."
+        0.2,
+        "epsilon_1: probability of an NMS grasp instead of the model's CEM grasp (rounds 2+; paper 0.2).",
+        ge=0, le=1,
     )
     epsilon_action: float = doc(
         0.2,
         "epsilon_2: probability of a uniformly random action instead of the policy's (rounds 2+; paper 0.2).",
+        ge=0, le=1,
     )
     action_noise: tuple[float, float, float, float] = doc(
         (0.02, 0.02, 0.01, 0.06),
@@ -85,6 +91,7 @@ class PolicyConfig(Config):
         "policy's action is the network's mean plus this noise, clipped to the task's action box. Smaller "
         "than the box (about a third of the random baseline's +-5 cm, +-pi/20 spread) so that greedy trials "
         "stay near what worked, large enough to keep exploring.",
+        ge=0,
     )
     expert_actions: float = doc(
         0.0,
@@ -93,8 +100,9 @@ class PolicyConfig(Config):
         "candidates at random): privileged exploration at training time only, not the paper's (0 = the "
         "paper). For tasks whose successful actions are a small target in the action box, so that uniform "
         "exploration finds too few successes to learn the policy from; labels still come from the trials.",
+        ge=0, le=1,
     )
-    max_modes: int = doc(30, "NMS modes kept per scene at most (the paper's 10-30 distinct modes).")
+    max_modes: int = doc(30, "NMS modes kept per scene at most (the paper's 10-30 distinct modes).", ge=1)
     nms: NMSConfig = doc(factory=NMSConfig, text="Suppression radius of the exploration grasps.")
     action_search: ActionSearchConfig = doc(
         factory=ActionSearchConfig,

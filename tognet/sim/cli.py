@@ -9,7 +9,7 @@ from typing import Any
 
 import typer
 
-from tognet.cliutil import user_errors
+from tognet.cliutil import out_file, user_errors
 from tognet.tasks import DEFAULT_TASK, GRASP_ONLY, SIM_TASKS, TASK_NAMES, get_props, get_task
 
 
@@ -89,22 +89,36 @@ def register(app: typer.Typer) -> None:
         grasp: tuple[float, float, float, float] | None = typer.Option(
             None,
             metavar="X Y Z PHI",
-            help="Grasp x y z phi (world, m, rad). Default: at the centre of mass, across the narrow side.",
+            help="Grasp x y z phi (world, m, rad). Default: found by a search (see the description above); "
+            "with --task grasping, at the centre of mass across the narrow side.",
         ),
         action: tuple[float, float, float, float] | None = typer.Option(
             None,
             metavar="AX AY AZ APHI",
-            help="Action a_x a_y a_z a_phi relative to the task's nominal start pose. Default: zeros.",
+            help="Action a_x a_y a_z a_phi (m, rad) relative to the task's reference point. Default: found "
+            "by a search (see the description above).",
         ),
-        seed: int = typer.Option(0, help="Scene seed (object drop, camera, props)."),
-        trial_seed: int = typer.Option(0, help="Execution-noise seed of the trial."),
-        gif: Path | None = typer.Option(None, help="Write an animation of the episode here (.gif)."),
+        seed: int = typer.Option(0, min=0, help="Scene seed (object drop, camera, props)."),
+        trial_seed: int = typer.Option(0, min=0, help="Execution-noise seed of the trial."),
+        gif: Path | None = typer.Option(None, help="Write an animation of the episode here (.gif; needs "
+                                        "MuJoCo's offscreen renderer, EGL on a headless machine)."),
         depth_png: Path | None = typer.Option(
             None, help="Write the depth image here as a 16-bit PNG in millimetres, with "
             "<stem>.intrinsics.json and <stem>.pose.json beside it: what `tognet plan` reads."),
         config: Path | None = typer.Option(None, help="SimConfig JSON (default: built-in)."),
     ) -> None:
-        """Run one episode (drop, depth image, grasp, lift, task primitive), print the labels, animate it."""
+        """Run one episode (drop, depth image, grasp, lift, task primitive), print the labels, animate it.
+
+        Without --grasp and --action, (grasp, action) pairs are tried on the trial seed until one succeeds
+        (at most 12): a hand-made tool's known good grasp first, then the default grasp (centre of mass,
+        across the narrow side) held either way round, each with the hand-computed actions of
+        tognet.sim.oracle; the first that succeeds is shown (or the first tried, if none does). With only
+        one of them given, the other is searched so.
+
+        Prints the grasp, the action, the labels (grasp_success, task_success, valid, failure) and the
+        episode's measurements. --depth-png also writes <stem>.intrinsics.json and <stem>.pose.json beside
+        the PNG, which `tognet plan` and `tognet grasps` read.
+        """
         import numpy as np
 
         from tognet.geometry import Grasp
@@ -119,10 +133,17 @@ def register(app: typer.Typer) -> None:
                 raise ValueError(f"{name} takes 4 finite numbers, got {' '.join(map(str, values))}")
         if task == GRASP_ONLY and action is not None:
             raise ValueError(f"--action has no use with --task {GRASP_ONLY} (the episode ends at the lift)")
-        for path, suffix, name in ((gif, ".gif", "--gif"), (depth_png, ".png", "--depth-png")):
-            if path is not None and (path.suffix.lower() != suffix or path.is_dir()):
-                raise ValueError(f"{name} must name a {suffix} file, got '{path}'")
+        if gif is not None:
+            out_file(gif, "--gif", ".gif")
+        if depth_png is not None:
+            out_file(depth_png, "--depth-png", ".png")
+            for sibling in depth_files(depth_png):
+                out_file(sibling, "--depth-png")
         cfg = SimConfig.load(config) if config else SimConfig()
+        if gif is not None:
+            from tognet.sim.render import check_renderer
+
+            check_renderer()
         with tempfile.TemporaryDirectory() as tmp:
             if objects is None:
                 tools = make_test_tools(tmp)
@@ -139,6 +160,11 @@ def register(app: typer.Typer) -> None:
                     raise ValueError("--object ID is required with --objects")
                 obj = load_object(objects, object_id)
             sim = Simulator(cfg, task, obj)
+            recorder = None
+            if gif is not None:
+                from tognet.sim.render import GifRecorder
+
+                recorder = GifRecorder(sim.model, every=1)  # a frame every 20 ms of sim time, shown at 25 fps
             obs = sim.reset(seed)
             if depth_png is not None:
                 from tognet.planning.camera import save_camera_pose, save_depth_png, save_intrinsics
@@ -179,11 +205,7 @@ def register(app: typer.Typer) -> None:
             if task != GRASP_ONLY:
                 typer.echo(f"action: {a[0]:.4f} {a[1]:.4f} {a[2]:.4f} {a[3]:.4f}  (a_x a_y a_z m, a_phi rad; "
                            "relative to the task's reference point)")
-            recorder = None
-            if gif is not None:
-                from tognet.sim.render import GifRecorder
-
-                recorder = GifRecorder(sim.model, every=1)  # a frame every 20 ms of sim time, shown at 25 fps
+            if recorder is not None:
                 with sim.recording(recorder):
                     result = sim.execute(g, a, trial_seed)
             else:

@@ -17,6 +17,15 @@ class RenderError(TognetError):
     """MuJoCo's offscreen renderer cannot start on this machine (no GL backend)."""
 
 
+def check_renderer() -> None:
+    """Raise :class:`RenderError` (one line: what to set or install) when the MUJOCO_GL the user set
+    cannot work; called before an episode that is to be animated, so the error comes first."""
+    from tognet.sim.gl import GL_PROBLEM
+
+    if GL_PROBLEM is not None:
+        raise RenderError(f"cannot animate: {GL_PROBLEM}")
+
+
 class GifRecorder:
     """Captures a frame every ``every`` physics chunks while attached to a Simulator (``sim.recording``),
     with the simulated time of each, so that :meth:`save` writes a GIF that plays at the real speed.
@@ -35,6 +44,7 @@ class GifRecorder:
         elevation: float = -40.0,
         max_fps: float | None = None,
     ) -> None:
+        check_renderer()
         try:
             self.renderer = mujoco.Renderer(model, height, width)
         except Exception as exc:  # no GL backend: say what to install rather than a GL stack trace
