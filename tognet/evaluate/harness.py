@@ -47,7 +47,7 @@ from tognet.evaluate.kinds import (
 from tognet.evaluate.stats import paired_difference, wilson
 from tognet.evaluate.store import EvalStore
 from tognet.evaluate.subsets import main_subset, subsets_of
-from tognet.io import file_digest
+from tognet.io import atomic_write_text, file_digest
 from tognet.jobs.output import JobOutput
 from tognet.jobs.workers import Executor, default_workers, make_executor
 from tognet.objects.record import ObjectRecord
@@ -206,20 +206,8 @@ def run_evaluation(
     realistic set has 44); ``object_dirs``: object set folders evaluated as categories of their own.
     Writes and returns ``results.json``'s content; with ``report``, also the report (``run_dir``: a
     pipeline run whose training curves to show; by default the task model's run when it lies in one)."""
-    from tognet.tasks import TASK_NAMES
-
     out = Path(out)
-    tasks = list(dict.fromkeys(tasks))
-    bad = [t for t in tasks if t not in TASK_NAMES]
-    if bad or not tasks:
-        raise EvalError(f"unknown task(s) {bad}; known: {', '.join(TASK_NAMES)}")
-    methods = check_methods(methods)
-    if episodes < 1:
-        raise EvalError("episodes must be >= 1")
-    categories = list(dict.fromkeys(categories or ([] if object_dirs else list(CATEGORIES))))
-    unknown = [c for c in categories if c not in CATEGORIES]
-    if unknown:
-        raise EvalError(f"unknown category {unknown}; known: {', '.join(CATEGORIES)} (or --objects DIR)")
+    tasks, methods, categories = _checked_request(tasks, methods, categories, object_dirs, episodes)
     config = config or EvalConfig()
     models = resolve_models(tasks, methods, grasp_model, task_models)
     check_models(models)
@@ -245,62 +233,14 @@ def run_evaluation(
         local = min(executor.workers, default_workers())  # objects are generated on this machine
         objects = {c: test_objects(c, n_objects, out, max(1, local), progress, log) for c in categories}
         objects.update(dict(users))
-        stores: dict[tuple[str, str], EvalStore] = {}
-        jobs: list[EvalJob] = []
-        for task in tasks:
-            for cat, recs in objects.items():
-                grasp = str(models[GRASP_ONLY]) if GRASP_ONLY in models else None
-                tmodel = str(models[task]) if task in models else None
-                smodel = str(models[search_name(task)]) if search_name(task) in models else None
-                planned = plan_eval_jobs(task, cat, recs, episodes, methods, config, grasp, tmodel, smodel)
-                meta = {"task": task, "category": cat, "methods": list(methods), "episodes": episodes,
-                        "config_hash": config.fingerprint(), "jobs": len(planned),
-                        "objects": sorted({j.obj.object_id for j in planned}),
-                        "models": {k: settings["models"][k]["sha256"]
-                                   for k in (GRASP_ONLY, task, search_name(task)) if k in settings["models"]}}
-                store = stores[(task, cat)] = EvalStore(out / task / cat, meta)
-                jobs += [j for j in planned if j.index not in store.done]
+        stores, jobs = _stores_and_jobs(out, tasks, objects, episodes, methods, config, models, settings)
         total = len(tasks) * len(objects) * episodes * len(methods)
         remaining = sum(j.planned for j in jobs)
         if remaining < total:
             log(f"{(total - remaining) // len(methods)} scenes already evaluated; running the other "
                 f"{remaining // len(methods)}")
-        errors: list[str] = []
-        bar = None
-        if progress:
-            from tqdm import tqdm
-
-            bar = tqdm(total=total, initial=total - remaining, desc="evaluate", unit="ep", mininterval=1.0,
-                       dynamic_ncols=True)
-        done_now = 0
-        tally: Counter[str] = Counter()
         t0 = time.perf_counter()
-
-        def on_result(job: EvalJob, output: JobOutput) -> None:
-            nonlocal done_now
-            info = {k: v for k, v in output.stats.items() if not k.startswith("bad_scene:")}
-            if output.error:
-                errors.append(output.error)
-                info["error"] = output.error
-                log(f"skipped job {job.task}/{job.category}/{job.index}: {output.error}")
-            records = list(output.columns.get("records", []))  # type: ignore[arg-type]
-            stores[(job.task, job.category)].add(job.index, records, info)
-            done_now += job.planned
-            for r in records:
-                if r["valid"]:
-                    tally[r["method"]] += 1
-                    tally[r["method"] + " ok"] += int(r["task_success"])
-            if bar is not None:
-                bar.update(job.planned)
-                shown = [m for m in (REFERENCE, ACTION_SEARCH, ORACLE) if tally[m]]
-                bar.set_postfix_str(", ".join(f"{m} {tally[m + ' ok'] / tally[m]:.0%}" for m in shown),
-                                    refresh=False)
-
-        try:
-            executor.run(jobs, on_result, log, fn=run_eval_job)
-        finally:
-            if bar is not None:
-                bar.close()
+        done_now = _run_jobs(executor, jobs, stores, total, remaining, progress, log)
         seconds_now = time.perf_counter() - t0
         records = [r for s in stores.values() for r in s.records()]
         job_errors = [i["error"] for s in stores.values() for i in s.info().values() if i.get("error")]
@@ -310,7 +250,8 @@ def run_evaluation(
                           "episodes_per_s_now": done_now / seconds_now if seconds_now > 0 else None,
                           "workers": executor.workers, "evaluation_seconds": time.perf_counter() - t_start,
                           "job_errors": job_errors}
-        (out / RESULTS).write_text(json.dumps(results, indent=2, default=_json_default) + "\n")
+        atomic_write_text(out / RESULTS, json.dumps(results, indent=2, default=_json_default) + "\n",
+                          fsync=False)
         log(format_results(results))
         if report:
             from tognet.evaluate.report import write_report
@@ -324,6 +265,90 @@ def run_evaluation(
         if own:
             executor.close()
     return results
+
+
+def _checked_request(
+    tasks: Sequence[str], methods: Sequence[str] | str, categories: Sequence[str],
+    object_dirs: Sequence[str | Path], episodes: int,
+) -> tuple[list[str], list[str], list[str]]:
+    """The tasks, methods and categories asked for, without repeats; EvalError names what is unknown."""
+    from tognet.tasks import TASK_NAMES
+
+    tasks = list(dict.fromkeys(tasks))
+    bad = [t for t in tasks if t not in TASK_NAMES]
+    if bad or not tasks:
+        raise EvalError(f"unknown task(s) {bad}; known: {', '.join(TASK_NAMES)}")
+    checked = list(check_methods(methods))
+    if episodes < 1:
+        raise EvalError("episodes must be >= 1")
+    categories = list(dict.fromkeys(categories or ([] if object_dirs else list(CATEGORIES))))
+    unknown = [c for c in categories if c not in CATEGORIES]
+    if unknown:
+        raise EvalError(f"unknown category {unknown}; known: {', '.join(CATEGORIES)} (or --objects DIR)")
+    return tasks, checked, categories
+
+
+def _stores_and_jobs(out: Path, tasks: Sequence[str], objects: dict[str, list[ObjectRecord]], episodes: int,
+                     methods: Sequence[str], config: EvalConfig, models: dict[str, Path],
+                     settings: dict[str, Any]) -> tuple[dict[tuple[str, str], EvalStore], list[EvalJob]]:
+    """One store per (task, category) in ``out`` and the jobs none of them holds yet (a resumed run
+    skips the finished ones)."""
+    stores: dict[tuple[str, str], EvalStore] = {}
+    jobs: list[EvalJob] = []
+    for task in tasks:
+        for cat, recs in objects.items():
+            grasp = str(models[GRASP_ONLY]) if GRASP_ONLY in models else None
+            tmodel = str(models[task]) if task in models else None
+            smodel = str(models[search_name(task)]) if search_name(task) in models else None
+            planned = plan_eval_jobs(task, cat, recs, episodes, methods, config, grasp, tmodel, smodel)
+            meta = {"task": task, "category": cat, "methods": list(methods), "episodes": episodes,
+                    "config_hash": config.fingerprint(), "jobs": len(planned),
+                    "objects": sorted({j.obj.object_id for j in planned}),
+                    "models": {k: settings["models"][k]["sha256"]
+                               for k in (GRASP_ONLY, task, search_name(task)) if k in settings["models"]}}
+            store = stores[(task, cat)] = EvalStore(out / task / cat, meta)
+            jobs += [j for j in planned if j.index not in store.done]
+    return stores, jobs
+
+
+def _run_jobs(executor: Executor, jobs: list[EvalJob], stores: dict[tuple[str, str], EvalStore], total: int,
+              remaining: int, progress: bool, log: Callable[[str], None]) -> int:
+    """Run the jobs, each result stored as it comes, with a progress bar showing TOG-Net's, the learned
+    action search's and the Oracle's running rates; the episodes run now."""
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=total, initial=total - remaining, desc="evaluate", unit="ep", mininterval=1.0,
+                   dynamic_ncols=True)
+    done_now = 0
+    tally: Counter[str] = Counter()
+
+    def on_result(job: EvalJob, output: JobOutput) -> None:
+        nonlocal done_now
+        info = {k: v for k, v in output.stats.items() if not k.startswith("bad_scene:")}
+        if output.error:
+            info["error"] = output.error
+            log(f"skipped job {job.task}/{job.category}/{job.index}: {output.error}")
+        records = list(output.columns.get("records", []))  # type: ignore[arg-type]
+        stores[(job.task, job.category)].add(job.index, records, info)
+        done_now += job.planned
+        for r in records:
+            if r["valid"]:
+                tally[r["method"]] += 1
+                tally[r["method"] + " ok"] += int(r["task_success"])
+        if bar is not None:
+            bar.update(job.planned)
+            shown = [m for m in (REFERENCE, ACTION_SEARCH, ORACLE) if tally[m]]
+            bar.set_postfix_str(", ".join(f"{m} {tally[m + ' ok'] / tally[m]:.0%}" for m in shown),
+                                refresh=False)
+
+    try:
+        executor.run(jobs, on_result, log, fn=run_eval_job)
+    finally:
+        if bar is not None:
+            bar.close()
+    return done_now
 
 
 def _json_default(x: Any) -> Any:
