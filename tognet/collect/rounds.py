@@ -24,7 +24,7 @@ from tognet.collect.store import RoundStore
 from tognet.data.episodes import read_columns, shard_paths
 from tognet.data.format import ACTION_SOURCES, FAILURE_CODES, GRASP_SOURCES
 from tognet.errors import TognetError
-from tognet.io import file_digest
+from tognet.io import atomic_write_text, file_digest
 from tognet.jobs.output import JobOutput
 from tognet.jobs.workers import Executor, LocalExecutor
 from tognet.objects.record import ObjectRecord
@@ -69,7 +69,6 @@ def collect_round(
             f"running the other {len(todo)}")
     own = executor is None
     executor = executor or LocalExecutor()
-    tally = _Tally()
     bar = None
     if progress:
         from tqdm import tqdm
@@ -77,58 +76,64 @@ def collect_round(
         written = sum(j.planned for j in jobs if j.index in store.done)
         bar = tqdm(total=sum(j.planned for j in jobs), initial=written,
                    desc=f"{task} r{round_index}", unit="ep", mininterval=1.0, dynamic_ncols=True)
-    errors: list[str] = []
-    t0 = time.perf_counter()
-    # Failed jobs are held back until some job of this run succeeds: when the first few all fail, the
-    # cause is the round's settings (a model that does not load, ...), not bad objects, so the round stops
-    # and those jobs stay unwritten (a resume after the fix runs them).
-    held: list[tuple[int, dict[str, Any]]] = []
-    succeeded = False
-    give_up = min(FAILURES_BEFORE_ABORT, len(todo))
-
-    def on_result(job: Job, output: JobOutput) -> None:
-        nonlocal succeeded
-        info = {k: v for k, v in output.stats.items() if not k.startswith("bad_scene:")}
-        if output.error:
-            errors.append(output.error)
-            info["error"] = output.error
-            if not succeeded:
-                held.append((job.index, info))
-                if len(held) >= give_up:
-                    raise RoundError(f"{task} round {round_index}: the first {len(held)} jobs all failed, so "
-                                     f"the round stopped (nothing written for them): {output.error}")
-                return
-            log(f"skipped job {job.index}: {output.error}")
-        elif not succeeded:
-            succeeded = True
-            for index, held_info in held:
-                log(f"skipped job {index}: {held_info['error']}")
-                store.add(index, {}, held_info)
-            held.clear()
-        store.add(job.index, output.columns, info)
-        tally.add(output.columns)
-        if bar is not None:
-            bar.update(job.planned)
-            seconds = time.perf_counter() - t0
-            bar.set_postfix_str(tally.postfix(seconds), refresh=False)
-
+    results = _Results(f"{task} round {round_index}", store, bar, min(FAILURES_BEFORE_ABORT, len(todo)), log)
     try:
-        executor.run(todo, on_result, log, fn=run_job)
+        executor.run(todo, results, log, fn=run_job)
     finally:
         if bar is not None:
             bar.close()
         store.flush(force=True)
         if own:
             executor.close()
-    seconds = time.perf_counter() - t0
+    seconds = time.perf_counter() - results.t0
     summary = summarise_round(out)
     summary.update(task=task, round=round_index, policy=round_config.policy, jobs=len(jobs),
                    jobs_run_now=len(todo), seconds_now=seconds,
-                   episodes_per_s_now=tally.episodes / seconds if seconds > 0 else None,
-                   workers=executor.workers, errors=errors)
-    (out / SUMMARY).write_text(json.dumps(summary, indent=2) + "\n")
+                   episodes_per_s_now=results.tally.episodes / seconds if seconds > 0 else None,
+                   workers=executor.workers, errors=results.errors)
+    atomic_write_text(out / SUMMARY, json.dumps(summary, indent=2) + "\n", fsync=False)
     log(format_round_table(summary))
     return summary
+
+
+class _Results:
+    """What a round does with each job's output: store it, tally it on the progress bar, and report a
+    failed job as skipped. Failed jobs are held back until some job of this run succeeds: when the first
+    few all fail, the cause is the round's settings (a model that does not load, ...), not bad objects, so
+    the round stops and those jobs stay unwritten (a resume after the fix runs them)."""
+
+    def __init__(self, name: str, store: RoundStore, bar: Any, give_up: int,
+                 log: Callable[[str], None]) -> None:
+        self.name, self.store, self.bar, self.give_up, self.log = name, store, bar, give_up, log
+        self.tally = _Tally()
+        self.errors: list[str] = []
+        self.held: list[tuple[int, dict[str, Any]]] = []
+        self.succeeded = False
+        self.t0 = time.perf_counter()
+
+    def __call__(self, job: Job, output: JobOutput) -> None:
+        info = {k: v for k, v in output.stats.items() if not k.startswith("bad_scene:")}
+        if output.error:
+            self.errors.append(output.error)
+            info["error"] = output.error
+            if not self.succeeded:
+                self.held.append((job.index, info))
+                if len(self.held) >= self.give_up:
+                    raise RoundError(f"{self.name}: the first {len(self.held)} jobs all failed, so the round "
+                                     f"stopped (nothing written for them): {output.error}")
+                return
+            self.log(f"skipped job {job.index}: {output.error}")
+        elif not self.succeeded:
+            self.succeeded = True
+            for index, held_info in self.held:
+                self.log(f"skipped job {index}: {held_info['error']}")
+                self.store.add(index, {}, held_info)
+            self.held.clear()
+        self.store.add(job.index, output.columns, info)
+        self.tally.add(output.columns)
+        if self.bar is not None:
+            self.bar.update(job.planned)
+            self.bar.set_postfix_str(self.tally.postfix(time.perf_counter() - self.t0), refresh=False)
 
 
 class RoundError(TognetError):
