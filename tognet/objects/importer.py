@@ -33,6 +33,7 @@ import re
 import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import trimesh
@@ -166,19 +167,9 @@ def import_meshes(
     a folder without mesh files, or if the parameters are invalid.
     """
     src_dir, out = Path(src_dir), Path(out)
-    kinds = "/".join(s[1:].upper() for s in MESH_SUFFIXES)
-    if src_dir.is_file():
-        if src_dir.suffix.lower() not in MESH_SUFFIXES:
-            raise ValueError(f"{src_dir}: not a mesh file ({kinds}, by its extension)")
-        files = [src_dir]
-    elif not src_dir.is_dir():
-        raise FileNotFoundError(f"mesh file or folder not found: {src_dir}")
-    else:
-        files = sorted(p for p in src_dir.iterdir() if p.is_file() and p.suffix.lower() in MESH_SUFFIXES)
+    files = _mesh_files(src_dir)
     if not scale > 0 or not density > 0 or not friction > 0:
         raise ValueError(f"scale, density and friction must be positive, got {scale}, {density}, {friction}")
-    if not files:
-        raise FileNotFoundError(f"no {kinds} files in {src_dir}")
     config = decompose_config or DecomposeConfig()
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out} is a file, not a folder")
@@ -197,37 +188,10 @@ def import_meshes(
         settings = {"sha256": sha, "scale": scale, "density": density, "friction": friction}
         old = existing.get(oid)
         if old is not None and not replace:
-            before = {k: old.extra.get(k) for k in settings}
-            if before == settings:
-                report.kept.append((path, f"{oid}: already in {out} from this file with these settings"))
-            else:
-                what = "the file changed" if before["sha256"] not in (None, sha) else \
-                    "the settings differ" if before["sha256"] == sha else "it may differ"
-                report.errors.append((path, f"{path}: {oid} is already in {out} and {what}; the object there "
-                                            "is kept (pass --replace to overwrite it)"))
+            _keep_existing(report, path, oid, old, settings, out)
             continue
         try:
-            mesh = load_checked(path, scale)
-            lo, hi = mesh.bounds
-            shift = -(lo + hi) / 2
-            mesh.apply_translation(shift)
-            pieces = decompose(mesh, config, seed=0)
-            if not pieces:
-                raise ImportMeshError(f"{path}: convex decomposition gave no pieces")
-            record = assemble_object(
-                staging,
-                object_id=oid,
-                kind="imported",
-                split=split,
-                shape_rule="none",
-                part_types=["mesh"],
-                visual=mesh,
-                collision_pieces=pieces,
-                density=density,
-                friction=friction,
-                extra={"source": path.name, "scale": scale, "offset": [round(float(v), 9) for v in shift],
-                       "sha256": sha, "density": density, "friction": friction},
-            )
+            record = _build(path, oid, staging, split, config, settings)
         except ImportMeshError as exc:
             report.errors.append((path, str(exc)))
             continue
@@ -237,16 +201,7 @@ def import_meshes(
         except Exception as exc:  # a library failing on one odd file must not stop the others
             report.errors.append((path, f"{path}: could not be processed ({type(exc).__name__}: {exc})"))
             continue
-        final = out / oid
-        if final.exists():
-            old = out / f".replaced-{oid}"
-            shutil.rmtree(old, ignore_errors=True)
-            final.rename(old)
-            (staging / oid).rename(final)
-            shutil.rmtree(old)
-        else:
-            out.mkdir(parents=True, exist_ok=True)
-            (staging / oid).rename(final)
+        final = _move_into(out, staging, oid)
         record = dataclasses.replace(record, folder=str(final.resolve()))
         existing[oid] = record
         report.records.append(record)
@@ -255,3 +210,74 @@ def import_meshes(
         meta["kinds"] = sorted({r.kind for r in existing.values()})
         report.catalog = write_catalog(out, list(existing.values()), meta=meta)
     return report
+
+
+def _mesh_files(src: Path) -> list[Path]:
+    """The mesh file ``src``, or the mesh files of the folder ``src`` (sorted, not recursive)."""
+    kinds = "/".join(s[1:].upper() for s in MESH_SUFFIXES)
+    if src.is_file():
+        if src.suffix.lower() not in MESH_SUFFIXES:
+            raise ValueError(f"{src}: not a mesh file ({kinds}, by its extension)")
+        return [src]
+    if not src.is_dir():
+        raise FileNotFoundError(f"mesh file or folder not found: {src}")
+    files = sorted(p for p in src.iterdir() if p.is_file() and p.suffix.lower() in MESH_SUFFIXES)
+    if not files:
+        raise FileNotFoundError(f"no {kinds} files in {src}")
+    return files
+
+
+def _keep_existing(report: ImportReport, path: Path, oid: str, old: ObjectRecord, settings: dict[str, Any],
+                   out: Path) -> None:
+    """An object already imported is kept: said so when it came from this file with these settings, an
+    error naming what changed otherwise."""
+    before = {k: old.extra.get(k) for k in settings}
+    if before == settings:
+        report.kept.append((path, f"{oid}: already in {out} from this file with these settings"))
+        return
+    what = "the file changed" if before["sha256"] not in (None, settings["sha256"]) else \
+        "the settings differ" if before["sha256"] == settings["sha256"] else "it may differ"
+    report.errors.append((path, f"{path}: {oid} is already in {out} and {what}; the object there is kept "
+                                "(pass --replace to overwrite it)"))
+
+
+def _build(path: Path, oid: str, staging: Path, split: str, config: DecomposeConfig,
+           settings: dict[str, Any]) -> ObjectRecord:
+    """The object of one mesh file, built in ``staging``: centred, convex-decomposed, assembled."""
+    mesh = load_checked(path, settings["scale"])
+    lo, hi = mesh.bounds
+    shift = -(lo + hi) / 2
+    mesh.apply_translation(shift)
+    pieces = decompose(mesh, config, seed=0)
+    if not pieces:
+        raise ImportMeshError(f"{path}: convex decomposition gave no pieces")
+    return assemble_object(
+        staging,
+        object_id=oid,
+        kind="imported",
+        split=split,
+        shape_rule="none",
+        part_types=["mesh"],
+        visual=mesh,
+        collision_pieces=pieces,
+        density=settings["density"],
+        friction=settings["friction"],
+        extra={"source": path.name, "scale": settings["scale"],
+               "offset": [round(float(v), 9) for v in shift], "sha256": settings["sha256"],
+               "density": settings["density"], "friction": settings["friction"]},
+    )
+
+
+def _move_into(out: Path, staging: Path, oid: str) -> Path:
+    """Move the built object from ``staging`` into ``out``, over an older one of the same id."""
+    final = out / oid
+    if final.exists():
+        old = out / f".replaced-{oid}"
+        shutil.rmtree(old, ignore_errors=True)
+        final.rename(old)
+        (staging / oid).rename(final)
+        shutil.rmtree(old)
+    else:
+        out.mkdir(parents=True, exist_ok=True)
+        (staging / oid).rename(final)
+    return final
