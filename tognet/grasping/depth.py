@@ -51,32 +51,44 @@ def fill_holes(
     """
     if not holes.any():
         return depth
-    out = depth.copy()
-    h, w = out.shape
-    open_ = holes.copy()
-    dr = np.array([-1, -1, -1, 0, 0, 1, 1, 1])
-    dc = np.array([-1, 0, 1, -1, 1, -1, 0, 1])
-    # The first layer: holes with a valid 8-neighbour.
-    rim = holes & ndimage.binary_dilation(~holes, structure=np.ones((3, 3), dtype=bool))
-    front = np.flatnonzero(rim)  # flat indices are much faster than 2-D np.nonzero
+    h, w = depth.shape
+    # A one-pixel border of -inf (never a neighbour's value, never open) spares the index clipping.
+    pw = w + 2
+    buf = np.full((h + 2, pw), -np.inf, dtype=np.float32)
+    buf[1:-1, 1:-1] = np.where(holes, -np.inf, depth)
+    open_ = np.zeros((h + 2, pw), dtype=bool)
+    open_[1:-1, 1:-1] = holes
+    closed = ~open_
+    closed[0], closed[-1], closed[:, 0], closed[:, -1] = False, False, False, False
+    near = np.zeros((h, w), dtype=bool)  # the holes' first layer: a valid 8-neighbour
+    for dr in (0, 1, 2):
+        for dc in (0, 1, 2):
+            if dr != 1 or dc != 1:
+                near |= closed[dr:dr + h, dc:dc + w]
+    rows, cols = np.nonzero(holes & near)
+    front = (rows + 1) * pw + cols + 1  # flat indices into the padded arrays
+    offsets = np.array([-pw - 1, -pw, -pw + 1, -1, 1, pw - 1, pw, pw + 1])
+    flat, flat_open = buf.ravel(), open_.ravel()
+    stamp = np.zeros(flat.size, dtype=np.int32)  # for removing repeats without sorting
     for _ in range(max_passes):
         if front.size == 0:
             break
-        rows, cols = np.divmod(front, w)
-        rr = np.clip(rows[:, None] + dr, 0, h - 1)
-        cc = np.clip(cols[:, None] + dc, 0, w - 1)
-        best = np.where(open_[rr, cc], -np.inf, out[rr, cc]).max(axis=1)
-        out[rows, cols] = best
-        open_[rows, cols] = False
-        nxt = (rr * w + cc)[open_[rr, cc]]  # the open neighbours of this layer: the next one
-        front = np.unique(nxt)
-    if open_.any():
+        nb = front[:, None] + offsets
+        flat[front] = flat[nb].max(axis=1)  # open neighbours hold -inf
+        flat_open[front] = False
+        nxt = nb.ravel()
+        nxt = nxt[flat_open[nxt]]  # the open neighbours of this layer: the next one, each once
+        stamp[nxt] = np.arange(1, nxt.size + 1, dtype=np.int32)
+        front = nxt[stamp[nxt] == np.arange(1, nxt.size + 1, dtype=np.int32)]
+    out = buf[1:-1, 1:-1]
+    left = open_[1:-1, 1:-1]
+    if left.any():
         if rest is not None:
-            out[open_] = np.float32(rest)
+            out[left] = np.float32(rest)
         else:
-            idx = ndimage.distance_transform_edt(open_, return_distances=False, return_indices=True)
+            idx = ndimage.distance_transform_edt(left, return_distances=False, return_indices=True)
             out = out[idx[0], idx[1]]
-    return out
+    return np.ascontiguousarray(out, dtype=np.float32)
 
 
 def height_map(depth: NDArray[np.float32], camera: Camera) -> NDArray[np.float32]:

@@ -554,7 +554,7 @@ def segment_objects(height: NDArray[np.float32], depth: NDArray[np.float32], int
     measured = np.isfinite(depth)
     sigma, at = noise
     with np.errstate(invalid="ignore"):
-        if cfg.noise_sigmas * sigma * (np.nanmax(depth) / at) ** 2 > cfg.min_height:
+        if sigma > 0 and cfg.noise_sigmas * sigma * (np.nanmax(depth) / at) ** 2 > cfg.min_height:
             scale = np.float32(cfg.noise_sigmas * sigma / at**2)
             above = height > np.maximum(np.float32(cfg.min_height), scale * depth * depth)
         else:
