@@ -48,8 +48,8 @@ from numpy.typing import ArrayLike, NDArray
 from tognet.config import Config, doc
 from tognet.errors import TognetError
 from tognet.geometry import Camera, CameraIntrinsics, DepthImageError, validate_depth
-from tognet.grasping.antipodal import AntipodalConfig, sample_antipodal
-from tognet.grasping.crops import CropConfig, extract_crops
+from tognet.grasping.antipodal import AntipodalConfig, GraspCandidates, sample_antipodal
+from tognet.grasping.crops import CropConfig, extract_crops, resolve_crop
 from tognet.grasping.depth import DepthScene, fill_holes_by_height, height_map, load_depth_file
 from tognet.grasping.nms import NMSConfig, angle_difference
 from tognet.io import atomic_write_bytes
@@ -73,7 +73,7 @@ from tognet.planning.camera import (
 from tognet.policies.action import PolicyActions
 from tognet.policies.config import PolicyConfig
 from tognet.policies.grasp import CEMGrasp
-from tognet.policies.view import SceneView, check_predictor_crops
+from tognet.policies.view import SceneView
 from tognet.tasks import GRASP_ONLY, TASK_NAMES, Task, get_task, reference_points
 
 #: The simulator's nominal camera height above the table (SimConfig().camera.position z), where every
@@ -360,6 +360,38 @@ def _scene_of(target: TableObject, found: list[TableObject], camera: Camera, pla
     return DepthScene(camera, valid, filled, height, holes)
 
 
+@dataclass
+class _TableView:
+    """The image seen from the table: the plane, the camera in the table frame, and per pixel the measured
+    depth, the holes, the measured height above the table (NaN in holes) and the hole-filled depth and
+    height."""
+
+    plane: TablePlane
+    table_from_camera: NDArray[np.float64]
+    camera: Camera
+    valid: NDArray[np.float32]
+    holes: NDArray[np.bool_]
+    measured_height: NDArray[np.float32]
+    filled: NDArray[np.float32]
+    height: NDArray[np.float32]
+    from_pose: bool = False
+
+
+@dataclass
+class _Search:
+    """What the grasp search scored (every grasp, its Q_G, Q_T|G and Q_T), the distinct best ones
+    (``chosen``, CEM's best first) with their actions, the best Q_T and the grasp stage's seconds."""
+
+    grasps: NDArray[np.float64]
+    q_g: NDArray[np.float64]
+    q_tg: NDArray[np.float64]
+    q_t: NDArray[np.float64]
+    chosen: NDArray[np.intp]
+    actions: NDArray[np.float64]
+    best_score: float
+    seconds_grasp: float
+
+
 class UserPlanner:
     """A loaded TOG-Net for one task, planning on users' depth images (see the module docstring).
 
@@ -374,13 +406,10 @@ class UserPlanner:
         self.task: Task = get_task(task)
         self.config = config or UserPlanConfig()
         self.predictor, self.checkpoint = _load_predictor(task, checkpoint, num_threads)
-        p = self.predictor
-        crop = getattr(p, "crop_config", None)
-        if crop is None:
-            arch = getattr(getattr(p, "model", None), "arch", None)
-            crop = CropConfig(size=getattr(p, "crop_size", 64), center_size=getattr(arch, "center_size", 32))
-        check_predictor_crops(p, crop, str(self.checkpoint))
-        self.crop: CropConfig = crop
+        try:
+            self.crop: CropConfig = resolve_crop([self.predictor])
+        except ValueError as exc:
+            raise PlanInputError(f"{self.checkpoint}: {exc}") from None
 
     # --- inputs ------------------------------------------------------------------------------------------
     @staticmethod
@@ -425,35 +454,15 @@ class UserPlanner:
         looks like something to pick up and on which the gripper finds a grasp: the largest near the image's
         centre, else the nearest to it)."""
         cfg = self.config
-        timing: dict[str, float] = {}
         warnings: list[str] = []
         t0 = time.perf_counter()
         valid, k, pose = self.read_inputs(depth, intrinsics, camera_pose)
         t1 = time.perf_counter()
-        plane = plane_from_pose(pose) if pose is not None else fit_table_plane(valid, k, cfg.plane)
-        table_from_camera = plane.table_from_camera()
-        camera = Camera(k, table_from_camera)
-        holes = ~np.isfinite(valid)
-        measured_height = height_map(valid, camera)  # NaN where nothing was measured
-        filled, height = fill_holes_by_height(valid, holes, camera, height=measured_height)
-        if pose is not None:
-            self._check_pose(height[::3, ::3][~holes[::3, ::3]], valid, k, plane)
+        view = self._table_view(valid, k, pose)
         t2 = time.perf_counter()
-        noise = table_noise(measured_height, valid)
-        found = segment_objects(measured_height, valid, k, table_from_camera, cfg.segment, noise)
-        if not found:
-            raise NoObjectError(
-                f"no object on the table: no measured surface rises {1000 * cfg.segment.min_height:.0f} mm "
-                f"above the table plane over {1e4 * cfg.segment.min_area:.0f} cm^2 (the table "
-                f"{'from the camera pose' if pose is not None else 'fitted'} {plane.offset:.3f} m below the "
-                f"camera, tilted {plane.tilt:.1f} degrees; range noise {1000 * noise[0]:.1f} mm at "
-                f"{noise[1]:.2f} m; {100 * holes.mean():.0f} % of the image unmeasured)"
-            )
+        found = self._objects(view)
         target, why = pick_object(found, object)
         fit = [o for o in found if o.qualifies]
-        # The default choice falls back on the next object that qualifies when the gripper finds no grasp on
-        # it (a block too wide to hold beside a smaller tool).
-        queue = fit if object is None else [target]
         if target.rejected is not None:
             warnings.append(f"object #{target.index} does not look like something to pick up "
                             f"({target.rejected}); planning on it as asked")
@@ -463,22 +472,10 @@ class UserPlanner:
                             + (f"; and {len(rejected) - 3} more" if len(rejected) > 3 else ""))
         t3 = time.perf_counter()
         rng = np.random.default_rng(cfg.seed if seed is None else seed)
-        skipped: list[TableObject] = []
-        for target in queue:
-            scene = _scene_of(target, found, camera, plane, valid, filled, height, holes,
-                              cfg.segment.mask_margin)
-            cands = sample_antipodal(scene, None, cfg.antipodal, rng)
-            if len(cands):
-                break
-            skipped.append(target)
-        else:
-            what = "; ".join(f"#{o.index} ({o.area * 1e4:.0f} cm^2, {1000 * o.height:.0f} mm high, at pixel "
-                             f"({o.pixel[0]:.0f}, {o.pixel[1]:.0f}))" for o in skipped[:4])
-            which = "object " if len(skipped) == 1 else "any object: "
-            raise PlanInputError(
-                f"no antipodal grasp candidate on {which}{what}: wider than the gripper's "
-                f"{1000 * cfg.antipodal.max_width:.0f} mm opening everywhere, or too flat to hold?"
-            )
+        # The default choice falls back on the next object that qualifies when the gripper finds no grasp on
+        # it (a block too wide to hold beside a smaller tool).
+        queue = fit if object is None else [target]
+        target, scene, cands, skipped = self._candidates(queue, found, view, rng)
         if skipped:
             why = (choice_reason(fit, fit.index(target))
                    + f" (none on {', '.join(f'#{o.index}' for o in skipped)})")
@@ -492,13 +489,90 @@ class UserPlanner:
         if target.touches_border:
             warnings.append(f"object #{target.index} touches the image border: part of it may be out of view")
         t4 = time.perf_counter()
+        search = self._search(scene, cands, rng)
+        t6 = time.perf_counter()
+        if search.best_score < cfg.low_score:
+            warnings.append(f"no good grasp for this task on this object: the best Q_T is "
+                            f"{search.best_score:.2f} (below {cfg.low_score:g})")
+        out = self._planned(search, view, pose, reference)
+        timing = dict(read=t1 - t0, table=t2 - t1, objects=t3 - t2, candidates=t4 - t3,
+                      grasp=search.seconds_grasp, action=t6 - t4 - search.seconds_grasp,
+                      total=time.perf_counter() - t0)
+        return UserPlan(
+            task=self.task_name, grasp=out[0], alternatives=out[1:], table_from_camera=view.table_from_camera,
+            world_from_camera=pose, plane=view.plane, objects=[o.describe() for o in found],
+            object={**target.describe(), "why": why}, candidates=len(cands),
+            evaluated=len(search.grasps), timing=timing, warnings=warnings, checkpoint=self.checkpoint,
+            seed=cfg.seed if seed is None else seed, intrinsics=k,
+        )
+
+    def _table_view(self, valid: NDArray[np.float32], k: CameraIntrinsics,
+                    pose: NDArray[np.float64] | None) -> _TableView:
+        """The table plane (from the camera pose, else fitted), the camera in the table frame, and the
+        image's heights above the table: as measured (NaN in holes) and with the holes filled."""
+        plane = plane_from_pose(pose) if pose is not None else fit_table_plane(valid, k, self.config.plane)
+        table_from_camera = plane.table_from_camera()
+        camera = Camera(k, table_from_camera)
+        holes = ~np.isfinite(valid)
+        measured_height = height_map(valid, camera)  # NaN where nothing was measured
+        filled, height = fill_holes_by_height(valid, holes, camera, height=measured_height)
+        if pose is not None:
+            self._check_pose(height[::3, ::3][~holes[::3, ::3]], valid, k, plane)
+        return _TableView(plane, table_from_camera, camera, valid, holes, measured_height, filled, height,
+                          from_pose=pose is not None)
+
+    def _objects(self, view: _TableView) -> list[TableObject]:
+        """The objects on the table, from measured pixels only; NoObjectError saying what was seen when
+        there is none."""
+        seg = self.config.segment
+        noise = table_noise(view.measured_height, view.valid)
+        found = segment_objects(view.measured_height, view.valid, view.camera.intrinsics,
+                                view.table_from_camera, seg, noise)
+        if not found:
+            plane = view.plane
+            raise NoObjectError(
+                f"no object on the table: no measured surface rises {1000 * seg.min_height:.0f} mm "
+                f"above the table plane over {1e4 * seg.min_area:.0f} cm^2 (the table "
+                f"{'from the camera pose' if view.from_pose else 'fitted'} {plane.offset:.3f} m below the "
+                f"camera, tilted {plane.tilt:.1f} degrees; range noise {1000 * noise[0]:.1f} mm at "
+                f"{noise[1]:.2f} m; {100 * view.holes.mean():.0f} % of the image unmeasured)"
+            )
+        return found
+
+    def _candidates(
+        self, queue: list[TableObject], found: list[TableObject], view: _TableView, rng: np.random.Generator,
+    ) -> tuple[TableObject, DepthScene, GraspCandidates, list[TableObject]]:
+        """The first object of ``queue`` with antipodal candidates: it, its scene, the candidates and the
+        objects passed over; PlanInputError describing them when none has any."""
+        cfg = self.config
+        skipped: list[TableObject] = []
+        for target in queue:
+            scene = _scene_of(target, found, view.camera, view.plane, view.valid, view.filled, view.height,
+                              view.holes, cfg.segment.mask_margin)
+            cands = sample_antipodal(scene, None, cfg.antipodal, rng)
+            if len(cands):
+                return target, scene, cands, skipped
+            skipped.append(target)
+        what = "; ".join(f"#{o.index} ({o.area * 1e4:.0f} cm^2, {1000 * o.height:.0f} mm high, at pixel "
+                         f"({o.pixel[0]:.0f}, {o.pixel[1]:.0f}))" for o in skipped[:4])
+        which = "object " if len(skipped) == 1 else "any object: "
+        raise PlanInputError(
+            f"no antipodal grasp candidate on {which}{what}: wider than the gripper's "
+            f"{1000 * cfg.antipodal.max_width:.0f} mm opening everywhere, or too flat to hold?"
+        )
+
+    def _search(self, scene: DepthScene, cands: GraspCandidates, rng: np.random.Generator) -> _Search:
+        """CEM on Q_T over the candidates (every grasp it scored recorded), the distinct best grasps and the
+        policy's action for each."""
+        cfg = self.config
+        t0 = time.perf_counter()
         record: list[NDArray[np.float64]] = []
         view = _UserView(scene, cands, self.task, self.crop, network_height=cfg.network_camera_height,
                          record=record)
         recording = _Recording(self.predictor)
         _, best_score = CEMGrasp(cfg.policy, recording, kind="task").best(view, rng)
         view.record = None
-        t5 = time.perf_counter()
+        seconds_grasp = time.perf_counter() - t0
         grasps = np.concatenate(record)
         preds = recording.predictions
         q_g = np.concatenate([p.q_g for p in preds]).astype(np.float64)
@@ -506,13 +580,16 @@ class UserPlanner:
         q_t = np.concatenate([p.q_t for p in preds]).astype(np.float64)
         chosen = _distinct(grasps, q_t, cfg.top + 1, cfg.alternatives)  # [0]: CEM's best, its top score
         actions = PolicyActions(self.predictor)(view, grasps[chosen], rng).actions
-        t6 = time.perf_counter()
-        if best_score < cfg.low_score:
-            warnings.append(f"no good grasp for this task on this object: the best Q_T is {best_score:.2f} "
-                            f"(below {cfg.low_score:g})")
-        camera_from_table = np.linalg.inv(table_from_camera)
+        return _Search(grasps, q_g, q_tg, q_t, chosen, actions, float(best_score), seconds_grasp)
+
+    def _planned(self, search: _Search, view: _TableView, pose: NDArray[np.float64] | None,
+                 reference: ArrayLike | None) -> list[PlannedGrasp]:
+        """The chosen grasps as the plan states them: table, camera and (with a pose) world frames, pixel,
+        scores, action and start pose."""
+        grasps, chosen, actions = search.grasps, search.chosen, search.actions
+        camera_from_table = np.linalg.inv(view.table_from_camera)
         frames = _grasp_frames(grasps[chosen], camera_from_table)
-        uv, _ = camera.project(grasps[chosen, :3])
+        uv, _ = view.camera.project(grasps[chosen, :3])
         world_from_table = None if pose is None else pose @ camera_from_table
         ref = None if reference is None else np.asarray(reference, dtype=np.float64).reshape(3)
         tc = self.task.config
@@ -527,19 +604,12 @@ class UserPlanner:
             offset = np.asarray(tc.nominal_offset, dtype=np.float64) + actions[j, :3]
             out.append(PlannedGrasp(
                 table=grasps[i].copy(), camera_from_gripper=frames[j], world=world, pixel=uv[j],
-                q_g=float(q_g[i]), q_t_given_g=float(q_tg[i]), q_t=float(q_t[i]), action=actions[j].copy(),
-                start_offset=offset, start_yaw=float(tc.nominal_yaw + actions[j, 3]),
+                q_g=float(search.q_g[i]), q_t_given_g=float(search.q_tg[i]), q_t=float(search.q_t[i]),
+                action=actions[j].copy(), start_offset=offset,
+                start_yaw=float(tc.nominal_yaw + actions[j, 3]),
                 start_position=None if ref is None else ref + offset,
             ))
-        timing.update(read=t1 - t0, table=t2 - t1, objects=t3 - t2, candidates=t4 - t3, grasp=t5 - t4,
-                      action=t6 - t5, total=time.perf_counter() - t0)
-        return UserPlan(
-            task=self.task_name, grasp=out[0], alternatives=out[1:], table_from_camera=table_from_camera,
-            world_from_camera=pose, plane=plane, objects=[o.describe() for o in found],
-            object={**target.describe(), "why": why}, candidates=len(cands),
-            evaluated=len(grasps), timing=timing, warnings=warnings, checkpoint=self.checkpoint,
-            seed=cfg.seed if seed is None else seed, intrinsics=k,
-        )
+        return out
 
     def _check_pose(self, heights: NDArray[np.float32], valid: NDArray[np.float32], k: CameraIntrinsics,
                     plane: TablePlane) -> None:
