@@ -3,13 +3,11 @@
 from __future__ import annotations
 
 import io
-from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
 from tognet.grasping.draw import depth_to_rgb, jaw_endpoints
-from tognet.io import atomic_write_bytes
 from tognet.planning.user import UserPlan
 
 #: Colours of the chosen grasp (first) and the alternatives, in order.
@@ -80,8 +78,3 @@ def render_plan(plan: UserPlan, depth: NDArray[np.float32], opening: float = 0.0
     buf = io.BytesIO()
     img.convert("RGB").save(buf, format="PNG")
     return buf.getvalue()
-
-
-def draw_plan(plan: UserPlan, depth: NDArray[np.float32], out: str | Path, opening: float = 0.08) -> Path:
-    """Write :func:`render_plan` to ``out`` (atomically)."""
-    return atomic_write_bytes(out, render_plan(plan, depth, opening), fsync=False)

@@ -630,12 +630,6 @@ class UserPlanner:
             "table top, in metres, and the pose world_from_camera?"
         )
 
-    def plan_observation(self, observation: Any, use_pose: bool = True, seed: int | None = None) -> UserPlan:
-        """Plan on a simulator :class:`tognet.sim.Observation` (its depth image and camera; the camera's pose
-        withheld when ``use_pose`` is False, as for a user without one)."""
-        cam = observation.camera
-        return self.plan(observation.depth, cam.intrinsics, cam.pose if use_pose else None, seed=seed)
-
 
 _PLANNERS: dict[tuple[str, str, str], UserPlanner] = {}
 
