@@ -1,0 +1,152 @@
+"""Inverse kinematics of an arm to a top-down gripper pose (x, y, z, yaw), by mink's differential IK.
+
+The target is tognet's 4-DoF grasp frame (:mod:`tognet.geometry.grasp`): the ``arm_tcp`` site at
+(x, y, z), its z axis straight down and its x axis (the jaw axis) at yaw phi from the world x axis.
+mink integrates joint velocities that reduce the pose error under the model's joint limits until the
+error is within tolerance. Where it stalls, the same solve without joint limits tells the two failures
+apart: it converges -> the pose is reachable only past a joint limit (``joint_limit``); it does not ->
+the pose is out of the arm's reach (``unreachable``).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from enum import StrEnum
+
+import mujoco
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from tognet.sim.robot.arms import EXTRA_HINT, ArmModel, RobotExtraMissing
+
+try:
+    import mink
+except ImportError:  # the robot extra is optional
+    mink = None
+
+
+class IKStatus(StrEnum):
+    """What an IK solve found (the values are the trial's failure reasons where it fails)."""
+
+    REACHED = "reached"
+    UNREACHABLE = "unreachable"
+    JOINT_LIMIT = "joint_limit"
+
+
+@dataclass(frozen=True)
+class IKResult:
+    """The joint angles an IK solve came closest at (the arm's joints, base to wrist) and how close."""
+
+    status: IKStatus
+    q: NDArray[np.float64]
+    position_error: float  # m
+    angle_error: float  # rad, the rotation between the reached and the target frame
+    iterations: int  # integration steps, both solves where the first one failed
+    seconds: float
+
+    @property
+    def reached(self) -> bool:
+        return self.status is IKStatus.REACHED
+
+
+@dataclass(frozen=True)
+class IKSettings:
+    """Tolerances and step sizes of the solve."""
+
+    position_tolerance: float = 1e-3  # m
+    angle_tolerance: float = 1e-2  # rad
+    max_iterations: int = 300
+    dt: float = 0.05  # s per integration step (a step's joint change is velocity x dt)
+    damping: float = 1e-3  # Levenberg-Marquardt damping of the pose task
+    posture_cost: float = 1e-3  # a weak pull towards the seed, to pick a solution near it
+    solver: str = "daqp"  # mink's QP back end (installed with mink)
+    refine: float = 0.1  # keep iterating until the errors are this fraction of the tolerances
+
+
+def _require_mink() -> None:
+    if mink is None:
+        raise RobotExtraMissing(f"mink is not installed: {EXTRA_HINT}")
+
+
+def grasp_frame(pose: ArrayLike) -> NDArray[np.float64]:
+    """The 4x4 world transform of the TCP for a top-down pose (x, y, z, phi)."""
+    x, y, z, phi = np.asarray(pose, dtype=np.float64).reshape(4)
+    c, s = np.cos(phi), np.sin(phi)
+    frame = np.eye(4)
+    # x along the jaw axis at yaw phi, z down, y = z cross x.
+    frame[:3, 0] = (c, s, 0.0)
+    frame[:3, 2] = (0.0, 0.0, -1.0)
+    frame[:3, 1] = np.cross(frame[:3, 2], frame[:3, 0])
+    frame[:3, 3] = (x, y, z)
+    return frame
+
+
+def tcp_errors(arm: ArmModel, data: mujoco.MjData, target: NDArray[np.float64]) -> tuple[float, float]:
+    """Position (m) and rotation angle (rad) between the TCP site (after mj_kinematics) and ``target``."""
+    pos = data.site_xpos[arm.tcp_site]
+    rot = data.site_xmat[arm.tcp_site].reshape(3, 3)
+    rel = target[:3, :3].T @ rot
+    angle = float(np.arccos(np.clip(0.5 * (np.trace(rel) - 1.0), -1.0, 1.0)))
+    return float(np.linalg.norm(pos - target[:3, 3])), angle
+
+
+class ArmIK:
+    """Differential IK of one compiled arm (reused across solves: the QP set-up is built once)."""
+
+    def __init__(self, arm: ArmModel, settings: IKSettings | None = None) -> None:
+        _require_mink()
+        self.arm = arm
+        self.settings = settings or IKSettings()
+        s = self.settings
+        model = arm.model
+        self._config = mink.Configuration(model)
+        self._frame_task = mink.FrameTask(model.site(arm.tcp_site).name, "site", position_cost=1.0,
+                                          orientation_cost=1.0, lm_damping=s.damping)
+        self._posture = mink.PostureTask(model, cost=s.posture_cost)
+        self._limits = [mink.ConfigurationLimit(model)]
+        self._freeze = [mink.DofFreezingTask(model, dof_indices=[int(d) for d in arm.finger_dofs])]
+
+    def _run(self, target: NDArray[np.float64], q0: NDArray[np.float64],
+             limits: list) -> tuple[NDArray[np.float64], float, float, int]:
+        """Integrate from ``q0`` until the pose error is ``settings.refine`` times the tolerances, the
+        steps stall or the iterations run out; the closest configuration seen (by position error, then
+        angle) and its errors."""
+        s = self.settings
+        self._config.update(q0)
+        self._frame_task.set_target(mink.SE3.from_matrix(target))
+        self._posture.set_target(q0)
+        data = self._config.data
+        best = (*tcp_errors(self.arm, data, target), q0.copy())
+        it = 0
+        while it < s.max_iterations:
+            it += 1
+            v = mink.solve_ik(self._config, [self._frame_task, self._posture], s.dt, s.solver,
+                              damping=1e-12, limits=limits, constraints=self._freeze)
+            self._config.integrate_inplace(v, s.dt)
+            pos_err, ang_err = tcp_errors(self.arm, data, target)
+            if (pos_err / s.position_tolerance + ang_err / s.angle_tolerance
+                    < best[0] / s.position_tolerance + best[1] / s.angle_tolerance):
+                best = (pos_err, ang_err, self._config.q.copy())
+            if pos_err <= s.refine * s.position_tolerance and ang_err <= s.refine * s.angle_tolerance:
+                break
+            if np.max(np.abs(v)) * s.dt < 1e-7:  # stalled
+                break
+        return best[2], best[0], best[1], it
+
+    def solve(self, pose: ArrayLike, q0: ArrayLike | None = None) -> IKResult:
+        """Joint angles that put the TCP at the top-down pose (x, y, z, phi), starting from ``q0`` (the
+        model's full qpos; the arm's home when None)."""
+        start = time.perf_counter()
+        s = self.settings
+        target = grasp_frame(pose)
+        seed = self.arm.home if q0 is None else np.asarray(q0, dtype=np.float64).copy()
+        q, pos_err, ang_err, its = self._run(target, seed, self._limits)
+        status = IKStatus.REACHED
+        if pos_err > s.position_tolerance or ang_err > s.angle_tolerance:
+            _, free_pos, free_ang, free_its = self._run(target, seed, [])
+            its += free_its
+            free_ok = free_pos <= s.position_tolerance and free_ang <= s.angle_tolerance
+            status = IKStatus.JOINT_LIMIT if free_ok else IKStatus.UNREACHABLE
+        return IKResult(status=status, q=q[self.arm.qpos_adr], position_error=pos_err, angle_error=ang_err,
+                        iterations=its, seconds=time.perf_counter() - start)
