@@ -18,7 +18,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tognet.sim.robot.arms import EXTRA_HINT, ArmModel, RobotExtraMissing
+from tognet.sim.robot.arms import BASE_BODY, EXTRA_HINT, ArmModel, RobotExtraMissing
 
 try:
     import mink
@@ -106,6 +106,7 @@ class ArmIK:
         self._posture = mink.PostureTask(model, cost=s.posture_cost)
         self._limits = [mink.ConfigurationLimit(model)]
         self._freeze = [mink.DofFreezingTask(model, dof_indices=[int(d) for d in arm.finger_dofs])]
+        self._fk_data = mujoco.MjData(model)
 
     def _run(self, target: NDArray[np.float64], q0: NDArray[np.float64],
              limits: list) -> tuple[NDArray[np.float64], float, float, int]:
@@ -134,17 +135,69 @@ class ArmIK:
                 break
         return best[2], best[0], best[1], it
 
+    def _fk(self, q: NDArray[np.float64]) -> mujoco.MjData:
+        data = self._fk_data
+        data.qpos[:] = q
+        mujoco.mj_kinematics(self.arm.model, data)
+        return data
+
+    def _tcp_yaw(self, q: NDArray[np.float64]) -> float:
+        rot = self._fk(q).site_xmat[self.arm.tcp_site].reshape(3, 3)
+        return float(np.arctan2(rot[1, 0], rot[0, 0]))
+
+    def seeds(self, pose: ArrayLike, q0: NDArray[np.float64]) -> list[NDArray[np.float64]]:
+        """Start configurations for a pose: ``q0`` with the first joint turned towards the target and the
+        last (the wrist) turned to the target's yaw, each way round that its range allows, the smallest
+        turn first. A differential solve from one seed takes the shortest turn of the wrist and can stall
+        against its limit where the turn the other way round reaches the pose."""
+        arm = self.arm
+        x, y, _, phi = np.asarray(pose, dtype=np.float64).reshape(4)
+        first, last = arm.qpos_adr[0], arm.qpos_adr[-1]
+        (lo0, hi0), (lo7, hi7) = arm.joint_limits[0], arm.joint_limits[-1]
+        q = q0.copy()
+        data = self._fk(q)
+        base = data.xpos[arm.model.body(BASE_BODY).id]
+        tcp = data.site_xpos[arm.tcp_site]
+        turn = np.arctan2(y - base[1], x - base[0]) - np.arctan2(tcp[1] - base[1], tcp[0] - base[0])
+        q[first] = np.clip(q[first] + (turn + np.pi) % (2 * np.pi) - np.pi, lo0, hi0)
+        # How the TCP's yaw follows the wrist joint (about -1 or +1 with the hand pointing down).
+        step = 1e-3
+        probe = q.copy()
+        probe[last] += step
+        gain = ((self._tcp_yaw(probe) - self._tcp_yaw(q) + np.pi) % (2 * np.pi) - np.pi) / step
+        if abs(gain) < 0.5:
+            return [q0, q]
+        delta = (phi - self._tcp_yaw(q) + np.pi) % (2 * np.pi) - np.pi
+        turns = sorted((delta + 2 * np.pi * k for k in range(-2, 3)), key=abs)
+        found = [q0]
+        for t in turns:
+            wrist = q[last] + t / gain
+            if lo7 <= wrist <= hi7:
+                seed = q.copy()
+                seed[last] = wrist
+                found.append(seed)
+        return found
+
     def solve(self, pose: ArrayLike, q0: ArrayLike | None = None) -> IKResult:
-        """Joint angles that put the TCP at the top-down pose (x, y, z, phi), starting from ``q0`` (the
-        model's full qpos; the arm's home when None)."""
+        """Joint angles that put the TCP at the top-down pose (x, y, z, phi), from ``q0`` (the model's
+        full qpos; the arm's home when None) or, where that stalls, from the other :meth:`seeds`."""
         start = time.perf_counter()
         s = self.settings
         target = grasp_frame(pose)
-        seed = self.arm.home if q0 is None else np.asarray(q0, dtype=np.float64).copy()
-        q, pos_err, ang_err, its = self._run(target, seed, self._limits)
+        home = self.arm.home if q0 is None else np.asarray(q0, dtype=np.float64).copy()
+        its = 0
+        best: tuple[NDArray[np.float64], float, float] | None = None
+        for seed in self.seeds(pose, home):
+            q, pos_err, ang_err, n = self._run(target, seed, self._limits)
+            its += n
+            if best is None or (pos_err, ang_err) < best[1:]:
+                best = (q, pos_err, ang_err)
+            if pos_err <= s.position_tolerance and ang_err <= s.angle_tolerance:
+                break
+        q, pos_err, ang_err = best
         status = IKStatus.REACHED
         if pos_err > s.position_tolerance or ang_err > s.angle_tolerance:
-            _, free_pos, free_ang, free_its = self._run(target, seed, [])
+            _, free_pos, free_ang, free_its = self._run(target, home, [])
             its += free_its
             free_ok = free_pos <= s.position_tolerance and free_ang <= s.angle_tolerance
             status = IKStatus.JOINT_LIMIT if free_ok else IKStatus.UNREACHABLE
