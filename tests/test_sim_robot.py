@@ -101,3 +101,14 @@ def test_a_pose_far_outside_the_workspace_is_unreachable(arm):
     result = ArmIK(arm).solve((2.0, 2.0, 0.5, 0.0))
     assert result.status is IKStatus.UNREACHABLE and not result.reached
     assert result.position_error > 1.0
+
+
+@needs_extra
+def test_a_pose_too_close_to_the_base_is_a_joint_limit():
+    """20 cm from the Panda's base, 15 cm above the table: the elbow would have to fold past its limit
+    (joint 4's -3.07 rad; without limits the solve converges at about -3.3 rad)."""
+    arm = load_arm("panda")
+    result = ArmIK(arm).solve((0.05, -0.3, 0.15, math.pi / 2))
+    assert result.status is IKStatus.JOINT_LIMIT and not result.reached
+    lo, hi = arm.joint_limits.T
+    assert np.all(result.q >= lo - 1e-6) and np.all(result.q <= hi + 1e-6)  # the closest within limits

@@ -3,9 +3,13 @@
 The target is tognet's 4-DoF grasp frame (:mod:`tognet.geometry.grasp`): the ``arm_tcp`` site at
 (x, y, z), its z axis straight down and its x axis (the jaw axis) at yaw phi from the world x axis.
 mink integrates joint velocities that reduce the pose error under the model's joint limits until the
-error is within tolerance. Where it stalls, the same solve without joint limits tells the two failures
-apart: it converges -> the pose is reachable only past a joint limit (``joint_limit``); it does not ->
-the pose is out of the arm's reach (``unreachable``).
+error is within tolerance, from a few seeds (:meth:`ArmIK.seeds`). Where every seed stalls, the same
+solve without joint limits tells the failures apart: it does not converge -> the pose is out of the
+arm's reach (``unreachable``); it converges to angles that whole turns bring within the ranges -> a
+solution the seeds missed, polished within the limits (``reached``); otherwise the pose is reachable
+only past a joint limit (``joint_limit``). That last verdict rests on the one unconstrained solution
+found from the home configuration: another branch within the limits could exist (a search over more
+seeds would tell).
 """
 
 from __future__ import annotations
@@ -178,6 +182,17 @@ class ArmIK:
                 found.append(seed)
         return found
 
+    def _into_limits(self, q: NDArray[np.float64]) -> NDArray[np.float64] | None:
+        """``q`` with each arm joint turned by whole turns into its range (None where one does not fit)."""
+        q = q.copy()
+        lo, hi = self.arm.joint_limits.T
+        angles = q[self.arm.qpos_adr]
+        turned = angles - 2 * np.pi * np.ceil((angles - hi) / (2 * np.pi))  # the largest one <= hi
+        if np.any(turned < lo):
+            return None
+        q[self.arm.qpos_adr] = turned
+        return q
+
     def solve(self, pose: ArrayLike, q0: ArrayLike | None = None) -> IKResult:
         """Joint angles that put the TCP at the top-down pose (x, y, z, phi), from ``q0`` (the model's
         full qpos; the arm's home when None) or, where that stalls, from the other :meth:`seeds`."""
@@ -197,9 +212,18 @@ class ArmIK:
         q, pos_err, ang_err = best
         status = IKStatus.REACHED
         if pos_err > s.position_tolerance or ang_err > s.angle_tolerance:
-            _, free_pos, free_ang, free_its = self._run(target, home, [])
-            its += free_its
-            free_ok = free_pos <= s.position_tolerance and free_ang <= s.angle_tolerance
-            status = IKStatus.JOINT_LIMIT if free_ok else IKStatus.UNREACHABLE
+            # Without joint limits: no solution -> out of reach. A solution whose angles, turned by whole
+            # turns, fit the ranges is one the seeds missed: solve again from it, within the limits.
+            free_q, free_pos, free_ang, n = self._run(target, home, [])
+            its += n
+            status = IKStatus.UNREACHABLE
+            if free_pos <= s.position_tolerance and free_ang <= s.angle_tolerance:
+                status = IKStatus.JOINT_LIMIT
+                wrapped = self._into_limits(free_q)
+                if wrapped is not None:
+                    q2, pos2, ang2, n = self._run(target, wrapped, self._limits)
+                    its += n
+                    if pos2 <= s.position_tolerance and ang2 <= s.angle_tolerance:
+                        q, pos_err, ang_err, status = q2, pos2, ang2, IKStatus.REACHED
         return IKResult(status=status, q=q[self.arm.qpos_adr], position_error=pos_err, angle_error=ang_err,
                         iterations=its, seconds=time.perf_counter() - start)
