@@ -112,3 +112,31 @@ def test_a_pose_too_close_to_the_base_is_a_joint_limit():
     assert result.status is IKStatus.JOINT_LIMIT and not result.reached
     lo, hi = arm.joint_limits.T
     assert np.all(result.q >= lo - 1e-6) and np.all(result.q <= hi + 1e-6)  # the closest within limits
+
+
+@needs_extra
+def test_the_arm_stands_in_tognets_world_and_reaches_over_the_table(arm, tools):
+    """Placed into the simulator's own world MJCF: it compiles, and at home and at an IK grasp 5 cm above
+    the table no arm geom touches the table or the ground (the arm's own links may touch each other)."""
+    from tognet.sim import SimConfig
+    from tognet.sim.robot import place_arm
+    from tognet.sim.world import world_xml
+    from tognet.tasks.props import PropsMJCF
+
+    cfg = SimConfig()
+    world = world_xml(cfg, tools["t_hammer"], PropsMJCF())
+    model = mujoco.MjModel.from_xml_string(place_arm(world, arm.spec.name, ground_z=-cfg.world.table_height))
+    data = mujoco.MjData(model)
+    adr = [model.jnt_qposadr[model.joint(j).id] for j in arm.joint_names]
+    pose = (-0.3, 0.05, 0.05, 1.0)
+    grasp = ArmIK(arm).solve(pose)
+    assert grasp.reached
+    static = {model.geom("table").id, model.geom("ground").id}
+    for q in (np.array(arm.spec.home), grasp.q):
+        data.qpos[:] = model.qpos0
+        data.qpos[adr] = q
+        mujoco.mj_forward(model, data)
+        hits = [(model.geom(c.geom1).name, model.geom(c.geom2).name) for c in data.contact[:data.ncon]
+                if {c.geom1, c.geom2} & static]
+        assert not [h for h in hits if any(n.startswith("arm_") for n in h)], hits
+    np.testing.assert_allclose(data.site("arm_tcp").xpos, pose[:3], atol=1e-3)

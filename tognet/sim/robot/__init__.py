@@ -17,6 +17,7 @@ from tognet.sim.robot.arms import (
     arm_xml,
     assets_dir,
     load_arm,
+    place_arm,
 )
 from tognet.sim.robot.ik import ArmIK, IKResult, IKSettings, IKStatus, grasp_frame
 
@@ -35,4 +36,5 @@ __all__ = [
     "assets_dir",
     "grasp_frame",
     "load_arm",
+    "place_arm",
 ]

@@ -288,3 +288,23 @@ def load_arm(name: str, base_pos: tuple[float, float, float] | None = None, base
         tcp_site=model.site(TCP_SITE).id,
     )
 
+
+
+def place_arm(world: str, name: str, base_pos: tuple[float, float, float] | None = None,
+              base_yaw: float | None = None, ground_z: float | None = None, visual: bool = False) -> str:
+    """The MJCF document ``world`` with the arm ``name`` added (see :func:`arm_xml`): its assets,
+    defaults and mount body merged in, every arm name prefixed ``arm_`` so nothing clashes. The pedestal
+    rests on the ground without a contact with it (it is fixed to the world anyway)."""
+    root = ET.fromstring(world)
+    arm = ET.fromstring(arm_xml(name, base_pos, base_yaw, ground_z, visual))
+    for tag in ("asset", "default"):
+        _merge_section(root, arm, tag)
+    for geom in arm.iter("geom"):
+        if geom.get("name") == PREFIX + "pedestal":
+            geom.set("contype", "0")
+            geom.set("conaffinity", "1")  # things that fall against it still hit it
+    worldbody = root.find("worldbody")
+    if worldbody is None:
+        raise ValueError("the world MJCF has no <worldbody>")
+    worldbody.extend(list(arm.find("worldbody")))
+    return ET.tostring(root, encoding="unicode")
