@@ -140,3 +140,21 @@ def test_the_arm_stands_in_tognets_world_and_reaches_over_the_table(arm, tools):
                 if {c.geom1, c.geom2} & static]
         assert not [h for h in hits if any(n.startswith("arm_") for n in h)], hits
     np.testing.assert_allclose(data.site("arm_tcp").xpos, pose[:3], atol=1e-3)
+
+
+@needs_extra
+def test_a_wrist_swing_is_timed_by_the_wrist_speed_limit(arm):
+    """A quarter turn about the vertical at a start pose over the manipulation half: the joints follow it
+    continuously, and its shortest time is set by the wrist's speed limit (far slower than the floating
+    gripper's 9 rad/s swing)."""
+    from tognet.sim.robot import joint_path
+
+    poses = [(0.2, 0.05, 0.15, 0.3 + a) for a in np.linspace(0.0, math.pi / 2, 10)]
+    path = joint_path(ArmIK(arm), poses)
+    assert path.status is IKStatus.REACHED and path.failed_at is None and path.q.shape == (10, 7)
+    assert np.all(path.limiting_joint == 6)  # the last joint, the wrist
+    assert np.abs(np.diff(path.q, axis=0)).max() < 0.5  # no jump between waypoints
+    # The other joints take a share of the turn (the Sawyer's base joint turns too), so the wrist's own
+    # turn, and the time, can be shorter than a quarter turn at its limit; still far slower than 9 rad/s.
+    wrist = arm.joint_speed_limits[6]
+    assert 1.5 * (math.pi / 2) / 9.0 < path.min_duration < 1.5 * (math.pi / 2) / wrist

@@ -19,7 +19,7 @@ from tognet.sim.robot.arms import (
     load_arm,
     place_arm,
 )
-from tognet.sim.robot.ik import ArmIK, IKResult, IKSettings, IKStatus, grasp_frame
+from tognet.sim.robot.ik import ArmIK, IKResult, IKSettings, IKStatus, JointPath, grasp_frame, joint_path
 
 __all__ = [
     "ARM_NAMES",
@@ -30,11 +30,13 @@ __all__ = [
     "IKResult",
     "IKSettings",
     "IKStatus",
+    "JointPath",
     "RobotExtraMissing",
     "arm_spec",
     "arm_xml",
     "assets_dir",
     "grasp_frame",
+    "joint_path",
     "load_arm",
     "place_arm",
 ]

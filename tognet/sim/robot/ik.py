@@ -227,3 +227,42 @@ class ArmIK:
                         q, pos_err, ang_err, status = q2, pos2, ang2, IKStatus.REACHED
         return IKResult(status=status, q=q[self.arm.qpos_adr], position_error=pos_err, angle_error=ang_err,
                         iterations=its, seconds=time.perf_counter() - start)
+
+
+@dataclass(frozen=True)
+class JointPath:
+    """Joint waypoints through a sequence of poses and the shortest time each segment can take."""
+
+    status: IKStatus  # REACHED when every pose was, else the first failure's
+    failed_at: int | None  # index of the first pose not reached
+    q: NDArray[np.float64]  # (n, joints) the waypoints reached (up to the failure)
+    min_times: NDArray[np.float64]  # (n - 1,) s: max over joints of |dq| / speed limit per segment
+    limiting_joint: NDArray[np.int64]  # (n - 1,) the joint that sets each segment's time
+
+    @property
+    def min_duration(self) -> float:
+        return float(self.min_times.sum())
+
+
+def joint_path(ik: ArmIK, poses: ArrayLike, q0: ArrayLike | None = None) -> JointPath:
+    """IK through ``poses`` ((n, 4) top-down poses), each solve seeded from the last solution so the arm
+    moves continuously; the joints' speed limits give each segment's shortest time. A straight Cartesian
+    move is a dense sequence of poses on the line; a wrist turn, poses that only change phi."""
+    arm = ik.arm
+    poses = np.asarray(poses, dtype=np.float64).reshape(-1, 4)
+    q_full = arm.home if q0 is None else np.asarray(q0, dtype=np.float64).copy()
+    reached: list[NDArray[np.float64]] = []
+    status, failed = IKStatus.REACHED, None
+    for i, pose in enumerate(poses):
+        result = ik.solve(pose, q_full)
+        if not result.reached:
+            status, failed = result.status, i
+            break
+        reached.append(result.q)
+        q_full = q_full.copy()
+        q_full[arm.qpos_adr] = result.q
+    q = np.array(reached).reshape(-1, len(arm.qpos_adr))
+    per_joint = np.abs(np.diff(q, axis=0)) / arm.joint_speed_limits
+    times = per_joint.max(axis=1) if len(per_joint) else np.zeros(0)
+    limiting = per_joint.argmax(axis=1) if len(per_joint) else np.zeros(0, dtype=np.int64)
+    return JointPath(status=status, failed_at=failed, q=q, min_times=times, limiting_joint=limiting)
