@@ -158,3 +158,28 @@ def test_a_wrist_swing_is_timed_by_the_wrist_speed_limit(arm):
     # turn, and the time, can be shorter than a quarter turn at its limit; still far slower than 9 rad/s.
     wrist = arm.joint_speed_limits[6]
     assert 1.5 * (math.pi / 2) / 9.0 < path.min_duration < 1.5 * (math.pi / 2) / wrist
+
+
+@needs_extra
+def test_the_servos_follow_a_straight_line_to_within_a_millimetre(arm):
+    """The arm with its joint servos (speed-capped setpoints, the model's torque limits, gravity
+    compensated) follows the joint path of a 30 cm line over the table and ends on its last pose."""
+    from tognet.sim.robot import joint_path
+    from tognet.sim.robot.control import follow, set_joints
+
+    driven = load_arm(arm.spec.name, servos=True)
+    model, data = driven.model, mujoco.MjData(driven.model)
+    assert model.nu == 9  # seven joint servos and the gripper's two finger servos
+    poses = [(x, 0.0, 0.15, 0.0) for x in np.linspace(0.0, 0.3, 31)]
+    path = joint_path(ArmIK(driven), poses)
+    assert path.status is IKStatus.REACHED
+    set_joints(driven, model, data, path.q[0])
+    tracking = follow(driven, model, data, path, slack=1.25)
+    # Each segment's time, rounded up to whole timesteps.
+    slowest = 1.25 * path.min_duration + len(path.min_times) * model.opt.timestep
+    assert 1.25 * path.min_duration - 1e-9 <= tracking.move_time <= slowest
+    assert tracking.final_error < 1e-3 and tracking.settle_time < 0.3
+    assert tracking.max_speed_ratio < 1.5  # the servos overshoot the setpoints' capped speed a little
+    mujoco.mj_kinematics(model, data)
+    pos_err, ang_err = tcp_errors(driven, data, grasp_frame(poses[-1]))
+    assert pos_err < 1e-3 and ang_err < 1e-2

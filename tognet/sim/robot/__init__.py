@@ -1,6 +1,6 @@
 """Real arms beside the table (optional: ``pip install 'tognet[robot]'``): the paper's Sawyer and a Panda
-with their own parallel grippers, joint limits and joint speed limits, and inverse kinematics to tognet's
-top-down grasp poses. The floating gripper (:mod:`tognet.sim.gripper`) stays the default and does not
+with their own parallel grippers, joint limits, joint speed and torque limits, inverse kinematics to
+tognet's top-down grasp poses (:mod:`.ik`) and joint servos that follow a joint path (:mod:`.control`). The floating gripper (:mod:`tognet.sim.gripper`) stays the default and does not
 use this package.
 
 Importing it needs only MuJoCo; loading an arm needs robosuite's model files and IK needs mink, and both
@@ -13,6 +13,7 @@ from tognet.sim.robot.arms import (
     ArmModel,
     ArmSpec,
     RobotExtraMissing,
+    add_servos,
     arm_spec,
     arm_xml,
     assets_dir,
@@ -32,6 +33,7 @@ __all__ = [
     "IKStatus",
     "JointPath",
     "RobotExtraMissing",
+    "add_servos",
     "arm_spec",
     "arm_xml",
     "assets_dir",

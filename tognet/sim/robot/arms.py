@@ -87,6 +87,13 @@ ARMS: dict[str, ArmSpec] = {
 }
 ARM_NAMES = tuple(ARMS)
 
+#: Joint servos of :func:`add_servos` (tuning, not the makers' data): stiffness (N m/rad), damping of the
+#: joint's speed (N m s/rad; at a constant speed v the joint lags its setpoint by about kv v / kp) and the
+#: reflected inertia of each joint's drive (kg m^2), which keeps the explicit damping stable at 2 ms.
+SERVO_KP = 10000.0
+SERVO_KV = 300.0
+SERVO_ARMATURE = 0.3
+
 # Attributes that name (or refer to) an element, prefixed together so references stay consistent.
 _NAME_ATTRS = ("name", "mesh", "material", "joint", "site", "body", "class", "childclass", "texture")
 
@@ -253,6 +260,7 @@ class ArmModel:
     dof_adr: NDArray[np.int64]  # their dof addresses
     joint_limits: NDArray[np.float64]  # (n, 2) lower and upper, rad, from the model
     joint_speed_limits: NDArray[np.float64]  # (n,) rad/s, from the spec
+    joint_torque_limits: NDArray[np.float64]  # (n,) N m, from the model (robosuite's motors)
     finger_dofs: NDArray[np.int64]  # the gripper's slide joints' dofs
     tcp_site: int
 
@@ -265,10 +273,12 @@ class ArmModel:
 
 
 def load_arm(name: str, base_pos: tuple[float, float, float] | None = None, base_yaw: float | None = None,
-             ground_z: float | None = None, visual: bool = False) -> ArmModel:
-    """Compile the arm ``name`` alone (see :func:`arm_xml`) and read its joints, limits and TCP site."""
+             ground_z: float | None = None, visual: bool = False, servos: bool = False) -> ArmModel:
+    """Compile the arm ``name`` alone (see :func:`arm_xml`; with :func:`add_servos` if ``servos``) and
+    read its joints, limits and TCP site."""
     spec = arm_spec(name)
-    model = mujoco.MjModel.from_xml_string(arm_xml(name, base_pos, base_yaw, ground_z, visual))
+    mjcf = arm_xml(name, base_pos, base_yaw, ground_z, visual)
+    model = mujoco.MjModel.from_xml_string(add_servos(mjcf, name) if servos else mjcf)
     hinges = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE]
     slides = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE]
     if len(hinges) != len(spec.joint_speed_limits) or len(spec.home) != len(hinges):
@@ -276,6 +286,7 @@ def load_arm(name: str, base_pos: tuple[float, float, float] | None = None, base
                            f"{len(spec.joint_speed_limits)} speed limits and {len(spec.home)} home angles")
     if not all(model.jnt_limited[j] for j in hinges):
         raise RuntimeError(f"{name}: every arm joint needs a range in the model")
+    torques = _torque_limits(spec)
     return ArmModel(
         spec=spec,
         model=model,
@@ -284,6 +295,8 @@ def load_arm(name: str, base_pos: tuple[float, float, float] | None = None, base
         dof_adr=np.array([model.jnt_dofadr[j] for j in hinges]),
         joint_limits=np.array([model.jnt_range[j] for j in hinges], dtype=np.float64),
         joint_speed_limits=np.array(spec.joint_speed_limits, dtype=np.float64),
+        joint_torque_limits=np.array([torques[model.joint(j).name[len(PREFIX):]] for j in hinges],
+                                     dtype=np.float64),
         finger_dofs=np.array([model.jnt_dofadr[j] for j in slides]),
         tcp_site=model.site(TCP_SITE).id,
     )
@@ -307,4 +320,44 @@ def place_arm(world: str, name: str, base_pos: tuple[float, float, float] | None
     if worldbody is None:
         raise ValueError("the world MJCF has no <worldbody>")
     worldbody.extend(list(arm.find("worldbody")))
+    return ET.tostring(root, encoding="unicode")
+
+
+def _torque_limits(spec: ArmSpec) -> dict[str, float]:
+    """Each arm joint's torque limit (N m, unprefixed joint name): robosuite's motors' control range."""
+    root = ET.parse(assets_dir() / spec.robot_xml).getroot()
+    return {m.get("joint"): max(abs(float(v)) for v in m.get("ctrlrange").split())
+            for m in root.iter("motor")}
+
+
+def add_servos(mjcf: str, name: str) -> str:
+    """``mjcf`` (holding the arm ``name``, from :func:`arm_xml` or :func:`place_arm`) with the arm driven:
+    each joint by an integrated-velocity servo (the control is the setpoint's speed, capped at the joint's
+    speed limit; the setpoint stays within the joint's range; the torque within the model's limit), the
+    arm's bodies gravity-compensated, and the gripper's own finger servos (robosuite's, names prefixed)."""
+    spec = arm_spec(name)
+    root = ET.fromstring(mjcf)
+    torques = _torque_limits(spec)
+    joints = {j.get("name"): j for j in root.iter("joint") if j.get("name", "").startswith(PREFIX)}
+    arm_joints = [PREFIX + j for j in torques]
+    if len(arm_joints) != len(spec.joint_speed_limits) or not all(j in joints for j in arm_joints):
+        raise ValueError(f"the MJCF does not hold the {name} arm's joints")
+    for body in root.iter("body"):
+        if body.get("name", "").startswith(PREFIX):
+            body.set("gravcomp", "1")
+    actuator = root.find("actuator")
+    if actuator is None:
+        actuator = ET.SubElement(root, "actuator")
+    for joint, speed in zip(arm_joints, spec.joint_speed_limits, strict=True):
+        joints[joint].set("armature", repr(SERVO_ARMATURE))
+        lo, hi = joints[joint].get("range").split()
+        torque = torques[joint[len(PREFIX):]]
+        ET.SubElement(actuator, "intvelocity", name=joint + "_servo", joint=joint, kp=repr(SERVO_KP),
+                      kv=repr(SERVO_KV), ctrlrange=f"{-speed!r} {speed!r}", actrange=f"{lo} {hi}",
+                      forcerange=f"{-torque!r} {torque!r}")
+    gripper = ET.parse(assets_dir() / spec.gripper_xml).getroot()
+    _prefix(gripper)
+    fingers = gripper.find("actuator")
+    if fingers is not None:
+        actuator.extend(list(fingers))
     return ET.tostring(root, encoding="unicode")
