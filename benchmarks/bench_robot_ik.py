@@ -7,7 +7,9 @@ half's drop area (x in drop_x, y in drop_y, 2 cm above the top) and over the man
 [0.05, 0.45], y in [-0.3, 0.3], 15 cm above the top), each at ``--yaws`` yaws in [0, 2 pi). Every solve
 starts from the arm's home configuration. Prints per arm and region the share reached / unreachable /
 joint_limit, the largest position and angle error of the reached ones, and the median and p90 solve
-time (reached and not apart: a failed solve runs to the iteration cap twice). The machine is shared:
+time (reached and not apart: a failed solve runs to the iteration cap twice). Then, with the arm's joint
+servos (``add_servos``), two joint paths run at 1.25 x their shortest time (``control.follow``): a 30 cm
+line along x 15 cm above the table, and a quarter wrist turn at (0.2, 0.05, 0.15). The machine is shared:
 read the load average printed with the times.
 """
 
@@ -18,10 +20,34 @@ import os
 import time
 from collections import Counter
 
+import mujoco
 import numpy as np
 
 from tognet.sim import WorldConfig
-from tognet.sim.robot import ARM_NAMES, ArmIK, IKStatus, load_arm
+from tognet.sim.robot import ARM_NAMES, ArmIK, IKStatus, grasp_frame, joint_path, load_arm
+from tognet.sim.robot.control import follow, set_joints
+from tognet.sim.robot.ik import tcp_errors
+
+PATHS = {
+    "30 cm line": [(x, 0.0, 0.15, 0.0) for x in np.linspace(0.0, 0.3, 31)],
+    "quarter wrist turn": [(0.2, 0.05, 0.15, 0.3 + a) for a in np.linspace(0.0, np.pi / 2, 10)],
+}
+
+
+def servo_runs(name: str) -> None:
+    arm = load_arm(name, servos=True)
+    model, data = arm.model, mujoco.MjData(arm.model)
+    ik = ArmIK(arm)
+    for label, poses in PATHS.items():
+        path = joint_path(ik, poses)
+        data.qpos[:] = model.qpos0
+        set_joints(arm, model, data, path.q[0])
+        t = follow(arm, model, data, path, slack=1.25)
+        mujoco.mj_kinematics(model, data)
+        pos_err, ang_err = tcp_errors(arm, data, grasp_frame(poses[-1]))
+        print(f"  servos, {label}: shortest {path.min_duration:.3f} s, setpoints {t.move_time:.3f} s, settle "
+              f"{t.settle_time:.3f} s, largest lag {t.max_lag:.3f} rad, fastest joint / limit "
+              f"{t.max_speed_ratio:.2f}, TCP error {pos_err * 1e3:.2f} mm {np.degrees(ang_err):.2f} deg")
 
 
 def regions(grid: int, yaws: int) -> dict[str, list[tuple[float, float, float, float]]]:
@@ -64,6 +90,7 @@ def main() -> None:
                 ms = np.array([r.seconds for r in bad]) * 1e3
                 line += f" | not reached: median {np.median(ms):.1f} ms"
             print(line)
+        servo_runs(name)
     print(f"load average {os.getloadavg()[0]:.1f}")
 
 
