@@ -12,10 +12,11 @@ They come from the ``quick`` self-supervision pipeline (``tognet pipeline --task
 grasping and hammering from the run of 2026-12-02, sweeping from a sweeping-only run of 2026-12-04 after
 the preset's sweeping rounds changed (two-can collection, expert exploration, action Sigma from the data),
 pulling from a pulling-only run of 2026-12-04 (``tognet pipeline --task pulling --preset quick``).
-The ``<task>_search`` models (2026-12-04) come from three rounds per task (four for pulling) of the
+The ``<task>_search`` models (2026-12-04): hammering's and pulling's from three and five rounds of the
 ``quick-search`` recipe, run round by round (``tognet collect`` then ``tognet train`` on all rounds so far;
-the commands are in benchmarks/RESULTS.md, "The learned action search"). Each JSON names its run; the
-README says how to reproduce them.
+the commands are in benchmarks/RESULTS.md, "The learned action search"), sweeping's from a run of the
+``medium`` preset (``tognet pipeline --task sweeping --preset medium``: 600 objects, six rounds). Each
+JSON names its run; the README says how to reproduce them.
 """
 
 from __future__ import annotations
