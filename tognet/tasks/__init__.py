@@ -67,11 +67,6 @@ def task_config_class(name: str) -> type:
     return _entry(name).task.config_class
 
 
-def headline_subset(name: str) -> str:
-    """The subset of scenes reported as the task's headline (the first of its :attr:`Task.subsets`)."""
-    return _entry(name).task.subsets[0].name
-
-
 def get_props(task: Task | None) -> TaskProps:
     """The simulator props of ``task`` (a :class:`Task` from :func:`get_task`); None: no props (grasping)."""
     if task is None:
@@ -100,7 +95,6 @@ __all__ = [
     "TaskProps",
     "get_props",
     "get_task",
-    "headline_subset",
     "reference_points",
     "task_config_class",
 ]
