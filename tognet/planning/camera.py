@@ -593,38 +593,47 @@ def segment_objects(height: NDArray[np.float32], depth: NDArray[np.float32], int
     if keep.size == 0:
         return []
     slices = ndimage.find_objects(labels)
-    r, t = table_from_camera[:3, :3], table_from_camera[:3, 3]
-    out = []
-    for lab_id in keep:
-        sl = slices[lab_id - 1]
-        local = (labels[sl] == lab_id) & up[sl]
-        top_row, left = sl[0].start + r0, sl[1].start + c0
-        bottom, right = sl[0].stop + r0, sl[1].stop + c0
-        mask = np.zeros(above.shape, dtype=bool)
-        mask[top_row:bottom, left:right] = local
-        lr, lc = np.nonzero(local)
-        lr, lc = lr + top_row, lc + left
-        zz = depth[lr, lc].astype(np.float64)
-        pts = np.column_stack([(lc - k.cx) / k.fx * zz, (lr - k.cy) / k.fy * zz, zz]) @ r.T + t
-        hs = height[lr, lc].astype(np.float64)
-        lo, top = np.percentile(hs, [5.0, 99.0])
-        xy = pts[:, :2] - pts[:, :2].mean(axis=0)
-        _, vecs = np.linalg.eigh(xy.T @ xy)
-        across = xy @ vecs[:, 0]  # along the footprint's narrow direction
-        thickness = float(np.subtract(*np.percentile(across, [95.0, 5.0])))
-        centre = np.array([*pts[:, :2].mean(axis=0), 0.0])
-        border = bool(top_row == 0 or left == 0 or bottom == k.height or right == k.width)
-        reach = float(np.min(np.hypot(lc - 0.5 * (k.width - 1), lr - 0.5 * (k.height - 1))))
-        share = float(seen[lab_id] / (seen[lab_id] + unseen[lab_id]))
-        area = float(areas[lab_id])
-        out.append(TableObject(
-            mask, area, float(top), centre, border, share, (float(lc.mean()), float(lr.mean())),
-            (left, top_row, right, bottom),
-            _rejection(cfg, area, float(top), share, thickness, float(top - lo), border), 0, reach,
-            reach <= cfg.centre_zone * min(k.width, k.height)))
+    out = [_region_object(labels[sl] == lab_id, up[sl], sl, (r0, c0), above.shape, depth, height, k,
+                          table_from_camera, cfg, float(areas[lab_id]),
+                          float(seen[lab_id] / (seen[lab_id] + unseen[lab_id])))
+           for lab_id in keep for sl in (slices[lab_id - 1],)]
     out.sort(key=lambda o: (o.rejected is not None, o.rejected is None and not o.central,
                             o.centre_distance if o.rejected is None and not o.central else 0.0, -o.area))
     return [replace(o, index=i) for i, o in enumerate(out)]
+
+
+def _region_object(in_label: NDArray[np.bool_], up: NDArray[np.bool_], sl: tuple[slice, slice],
+                   offset: tuple[int, int], shape: tuple[int, ...], depth: NDArray[np.float32],
+                   height: NDArray[np.float32], k: CameraIntrinsics, table_from_camera: NDArray[np.float64],
+                   cfg: SegmentConfig, area: float, share: float) -> TableObject:
+    """One labelled region (its bounding box ``sl`` within the search box at ``offset``) as a
+    :class:`TableObject`: mask, height, footprint centre and thickness, border, reach to the image's
+    centre, and whether (and why) it is rejected; ``index`` 0 until the list is sorted."""
+    r0, c0 = offset
+    local = in_label & up
+    top_row, left = sl[0].start + r0, sl[1].start + c0
+    bottom, right = sl[0].stop + r0, sl[1].stop + c0
+    mask = np.zeros(shape, dtype=bool)
+    mask[top_row:bottom, left:right] = local
+    lr, lc = np.nonzero(local)
+    lr, lc = lr + top_row, lc + left
+    zz = depth[lr, lc].astype(np.float64)
+    r, t = table_from_camera[:3, :3], table_from_camera[:3, 3]
+    pts = np.column_stack([(lc - k.cx) / k.fx * zz, (lr - k.cy) / k.fy * zz, zz]) @ r.T + t
+    hs = height[lr, lc].astype(np.float64)
+    lo, top = np.percentile(hs, [5.0, 99.0])
+    xy = pts[:, :2] - pts[:, :2].mean(axis=0)
+    _, vecs = np.linalg.eigh(xy.T @ xy)
+    across = xy @ vecs[:, 0]  # along the footprint's narrow direction
+    thickness = float(np.subtract(*np.percentile(across, [95.0, 5.0])))
+    centre = np.array([*pts[:, :2].mean(axis=0), 0.0])
+    border = bool(top_row == 0 or left == 0 or bottom == k.height or right == k.width)
+    reach = float(np.min(np.hypot(lc - 0.5 * (k.width - 1), lr - 0.5 * (k.height - 1))))
+    return TableObject(
+        mask, area, float(top), centre, border, share, (float(lc.mean()), float(lr.mean())),
+        (left, top_row, right, bottom),
+        _rejection(cfg, area, float(top), share, thickness, float(top - lo), border), 0, reach,
+        reach <= cfg.centre_zone * min(k.width, k.height))
 
 
 def choice_reason(fit: list[TableObject], first: int = 0) -> str:
