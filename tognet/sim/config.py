@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -224,6 +224,66 @@ class EpisodeConfig(Config):
     check_every: int = doc(10, "Contacts and stability are checked every this many steps.", ge=1)
 
 
+#: What can carry the hand: the floating base, or a real arm (the optional ``robot`` extra).
+ROBOTS = ("floating", "sawyer", "panda")
+
+
+@dataclass(frozen=True)
+class RobotConfig(Config):
+    """What carries the hand: the floating x, y, z, yaw base (the default, as VGN's), or a real arm beside
+    the table (``pip install 'tognet[robot]'``, :mod:`tognet.sim.robot`) carrying the same hand.
+
+    An arm runs the same trial through joint servos: every move of the hand's setpoint is turned into
+    joint speeds by resolved-rate inverse kinematics, each capped at its joint's speed limit (the arm then
+    falls behind and catches up) and kept inside the joint ranges. Its last joint is the hand's wrist and
+    takes the wrist servo of ``SimConfig.gripper`` (its stiffness, torque limit and rotor inertia: the
+    hammering task's design holds the wrist's torque low) but the arm's own speed limit."""
+
+    name: Literal["floating", "sawyer", "panda"] = doc(
+        "floating", "What carries the hand: floating, sawyer or panda."
+    )
+    base_position: tuple[float, float, float] | None = doc(
+        None,
+        "The arm's base (m, world frame; the table top is z = 0); None: the arm's default, beside the "
+        "table's long side at y < 0, facing it (tognet.sim.robot.arms.ARMS).",
+    )
+    base_yaw: float | None = doc(None, "The arm's base yaw (rad); None: the arm's default (facing +y).")
+    park: tuple[float, float, float] = doc(
+        (0.0, 0.3, 0.45),
+        "Where the hand waits while a scene settles (m), relative to the base's x and y and above the "
+        "table: clear of the object's drop region and of the props.",
+    )
+    tracking_tolerance: float = doc(
+        0.002, "A move has arrived when the joint setpoints put the hand within this (m; rad / 5) of it.",
+        gt=0,
+    )
+    catch_up_time: float = doc(
+        1.5,
+        "After a move's setpoint has arrived, the arm gets this long (s) to catch up with it: a joint at "
+        "its speed limit falls behind; one that cannot arrive at all means a joint limit or out of reach.",
+        gt=0,
+    )
+    joint_margin: float = doc(
+        0.01, "The joint setpoints stay this far (rad) inside each joint's range.", ge=0
+    )
+    damping: float = doc(
+        0.02, "Damping of the least-squares inverse kinematics (m): smooth near singular poses.", gt=0
+    )
+    wrist_weight: float = doc(
+        100.0,
+        "How much more readily the last joint (the hand's wrist) moves than the others in the inverse "
+        "kinematics: a turn of the hand about its vertical axis is then the wrist's alone, as on the "
+        "floating base, and the stiff shoulder and elbow do not push a struck peg (tasks' wrist torque).",
+        gt=0,
+    )
+    posture_gain: float = doc(
+        0.2,
+        "Share of the way back to the trial's first joint configuration the arm's spare degree of "
+        "freedom moves each control step (null space): the elbow does not drift.",
+        ge=0, le=1,
+    )
+
+
 def _with_task_sections(cls: type) -> type:
     """Add a field per registered task (``TASK_NAMES``, in order) holding its config, default the task's
     defaults: applied before ``@dataclass`` so they are ordinary fields (saved, loaded and replaced like
@@ -246,6 +306,9 @@ class SimConfig(Config):
     camera: CameraConfig = doc(factory=CameraConfig, text="Overhead depth camera.")
     gripper: GripperConfig = doc(factory=GripperConfig, text="Parallel-jaw gripper and its base.")
     episode: EpisodeConfig = doc(factory=EpisodeConfig, text="Execution noise and episode rules.")
+    robot: RobotConfig = doc(
+        factory=RobotConfig, text="What carries the hand: the floating base or an arm."
+    )
 
     def task_config(self, name: str) -> Any:
         """The config of the task called ``name`` (a registered task)."""

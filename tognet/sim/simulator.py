@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 
 from tognet.geometry import Camera, Grasp
 from tognet.objects.record import ObjectRecord
+from tognet.sim.arm import arm_driver
 from tognet.sim.config import SimConfig
 from tognet.sim.depth import DepthRenderer, sample_camera
 from tognet.sim.physics import (
@@ -90,23 +91,32 @@ class Simulator(Trial):
             if same_prefix(lite, self.model):
                 self._lite = (lite, mujoco.MjData(lite))
         m = self.model
-        self._jid = {
-            n: m.joint(n).id for n in ("grip_x", "grip_y", "grip_z", "grip_yaw", "finger_l", "finger_r")
-        }
+        joints = ("finger_l", "finger_r")
+        if config.robot.name == "floating":
+            joints = ("grip_x", "grip_y", "grip_z", "grip_yaw", *joints)
+        self._jid = {n: m.joint(n).id for n in joints}
         self._qadr = {n: int(m.jnt_qposadr[j]) for n, j in self._jid.items()}
         self._dadr = {n: int(m.jnt_dofadr[j]) for n, j in self._jid.items()}
+        self._fingers_ctrl = (m.actuator("act_finger_l").id, m.actuator("act_finger_r").id)
+        self._hand_body = m.body("hand").id
+        self._arm = None if config.robot.name == "floating" else arm_driver(config, m)
+        self._arm_sp = np.zeros(4)
         self._obj_qadr = int(m.jnt_qposadr[m.joint("object").id])
-        self._hand_qadr = self._qadr["grip_x"]  # grip_y follows it
+        self._hand_qadr = self._qadr.get("grip_x", -1)  # grip_y follows it
         self._obj_dadr = int(m.jnt_dofadr[m.joint("object").id])
         self._obj_body = m.body("object").id
         self._cat = np.full(m.ngeom, OTHER, dtype=np.int64)
         self._cat[m.geom("table").id] = TABLE
         self._cat[m.geom("ground").id] = GROUND
+        # The hand's geoms (and an arm's links: every body on the hand's root) are the gripper.
+        hand_root = m.body_rootid[self._hand_body] if self._arm is not None else None
         for g in range(m.ngeom):
             name = m.geom(g).name
             if name.startswith("piece_"):
                 self._cat[g] = OBJECT
             elif m.geom_bodyid[g] in (m.body("hand").id,):
+                self._cat[g] = GRIPPER
+            elif hand_root is not None and m.body_rootid[m.geom_bodyid[g]] == hand_root:
                 self._cat[g] = GRIPPER
         self._cat[m.geom("finger_l").id] = FINGER_L
         self._cat[m.geom("finger_r").id] = FINGER_R
@@ -127,6 +137,7 @@ class Simulator(Trial):
         self._object_reach = float(np.max(np.linalg.norm(self._body_vertices, axis=1)))
         self._state_spec = mujoco.mjtState.mjSTATE_INTEGRATION
         self._saved: NDArray[np.float64] | None = None
+        self._arm_park: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
         self._scene: dict[str, Any] = {}
         self._recorder: Any = None
         # Called after every physics step while the tool is near the props (see TaskProps.near), else None.
@@ -192,10 +203,13 @@ class Simulator(Trial):
         """(N, 3) collision vertices of the object in its body frame (origin at the centre of mass)."""
         return self._body_vertices
 
-    @property
-    def hand_qadr(self) -> int:
-        """qpos address of the gripper base's x joint (its y joint follows)."""
-        return self._hand_qadr
+    def hand_xy(self) -> tuple[float, float]:
+        """Where the hand is now (the grasp centre's x, y in the world; the floating base's joints)."""
+        if self._arm is None:
+            q, a = self.data.qpos, self._hand_qadr
+            return float(q[a]), float(q[a + 1])
+        x, y = self.data.xpos[self._hand_body, :2]
+        return float(x), float(y)
 
     # --- scene --------------------------------------------------------------------------------------
     def _object_vertices(self) -> tuple[NDArray[np.float64], tuple[int, ...]]:
@@ -212,7 +226,7 @@ class Simulator(Trial):
         layout = self._props.sample_layout(rng)
         for attempt in range(5):
             mujoco.mj_resetData(m, d)
-            self._set_gripper(np.asarray(PARK), 0.0, self.config.gripper.max_opening)
+            self._park()
             yaw = rng.uniform(0, 2 * np.pi)
             xy = (rng.uniform(*w.drop_x), rng.uniform(*w.drop_y))
             # The body's origin (the centre of mass) over the drop point, the lowest point drop_height up.
@@ -256,6 +270,25 @@ class Simulator(Trial):
             seed=int(seed),
             info={"layout": layout},
         )
+
+    def _park(self) -> None:
+        """The hand out of the way while a scene settles: the floating base above the table, an arm at its
+        park pose (``robot.park``)."""
+        g = self.config.gripper
+        if self._arm is None:
+            self._set_gripper(np.asarray(PARK), 0.0, g.max_opening)
+            return
+        if self._arm_park is None:
+            base = self._arm.base_position
+            pose = np.array([base[0] + self.config.robot.park[0], base[1] + self.config.robot.park[1],
+                             self.config.robot.park[2], 0.0])
+            try:
+                self._arm_park = (pose, self._arm.solve(pose, "the park pose"))
+            except Exception as exc:
+                raise SimulationError(f"the {self.config.robot.name} arm cannot reach its park pose "
+                                      f"{pose[:3].round(3).tolist()} (robot.park): {exc}") from exc
+        pose, q = self._arm_park
+        self._set_gripper(pose[:3], float(pose[3]), g.max_opening, q)
 
     def _settle(self) -> None:
         w = self.config.world

@@ -34,8 +34,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tognet.geometry import Grasp
+from tognet.sim.arm import GRASP_STEPS, plan_reach, reach_steps, task_steps
 from tognet.sim.gripper import GripperControl
-from tognet.sim.physics import IS_TARGET, TOOL_SIDE, Landed, SimulationError, Unstable
+from tognet.sim.physics import IS_TARGET, TOOL_SIDE, ArmStuck, Landed, SimulationError, Unstable
 from tognet.sim.world import BASE_RANGE
 from tognet.tasks import FailureReason, Task, TaskOutcome
 
@@ -57,6 +58,8 @@ class Trial(GripperControl):
     task: Task | None
     _saved: Any
     _scene: dict[str, Any]
+    _grasp_held: bool = False  # the trial's grasp held the tool clear of the table (for an arm's failure)
+    _arm_turn: float = 0.0  # an arm's extra whole turn of the wrist to the start yaw (its range needs it)
 
     def execute(self, grasp: Grasp, action: Any = None, seed: int = 0) -> TrialResult:
         """Run one trial from the settled scene (grasp, lift, transport, primitive) and label it.
@@ -72,11 +75,15 @@ class Trial(GripperControl):
         self._props.activate()  # props parked by an earlier trial are back in play
         rng = np.random.default_rng([int(self._scene["seed"]), int(seed), 0xE8EC])
         info: dict[str, Any] = {"seed": int(seed), "scene_seed": self._scene["seed"]}
+        self._grasp_held = False
         try:
             result = self._execute(grasp, action, rng, info)
         except Unstable as exc:
             info["unstable"] = str(exc)
             result = TrialResult(False, False, False, FailureReason.UNSTABLE, info)
+        except ArmStuck as exc:  # only with an arm: where it could not go, after the grasp or before
+            info["arm_stuck"] = exc.what
+            result = TrialResult(self._grasp_held, False, True, FailureReason(exc.reason), info)
         finally:
             info["sim_time"] = float(self.data.time)
             self._every_step = None
@@ -89,7 +96,10 @@ class Trial(GripperControl):
 
     def _check_reach(self, grasp: Grasp, action: Any) -> None:
         """ValueError when the grasp (with its approach and lift) or the action's start pose (with its
-        clearance) lies outside the travel of the gripper base's joints (``world.BASE_RANGE``)."""
+        clearance) lies outside the travel of the gripper base's joints (``world.BASE_RANGE``). An arm's
+        reach is part of the trial (:func:`tognet.sim.arm.plan_reach`): nothing to check here."""
+        if self._arm is not None:
+            return
         g = self.config.gripper
         margin = 0.05  # room for the execution noise and the servo's overshoot
         points = [("grasp", np.array([grasp.x, grasp.y, grasp.z]), max(g.approach_height, g.min_lift))]
@@ -115,7 +125,16 @@ class Trial(GripperControl):
         if pos[2] < min_z:
             info["grasp_z_clamped"] = float(pos[2])
             pos[2] = min_z
-        self._set_gripper(pos + np.array([0, 0, g.approach_height]), yaw, g.max_opening)
+        lift_z = max(g.lift_height, pos[2] + g.min_lift)
+        q0, stuck = None, None
+        self._arm_turn = 0.0
+        if self._arm is not None:  # the grasp and the rest of the trial within the arm's reach
+            reference = self._scene["reference"]
+            reach = plan_reach(self.config, self.task, self._arm.ik, pos, yaw, reference, action)
+            if reach.stuck is not None and reach.stuck.what in GRASP_STEPS:
+                raise reach.stuck  # the grasp itself is out of reach
+            q0, stuck, self._arm_turn = reach.path.q[0], reach.stuck, reach.turn
+        self._set_gripper(pos + np.array([0, 0, g.approach_height]), yaw, g.max_opening, q0)
         mujoco.mj_forward(self.model, self.data)
         props_at_rest = self._props.positions()
         self._props.hold()  # props far from the tool leave the physics until it comes near
@@ -126,7 +145,7 @@ class Trial(GripperControl):
         except Landed:
             info["landed_on_object"] = True
             return TrialResult(False, False, True, FailureReason.GRASP_FAILED, info)
-        self.data.ctrl[4] = self.data.ctrl[5] = -0.02
+        self._close_fingers()
         fingers = [self._dadr["finger_l"], self._dadr["finger_r"]]
         closing = {"steps": 0}
 
@@ -135,7 +154,6 @@ class Trial(GripperControl):
             return closing["steps"] >= 3 and bool(np.max(np.abs(self.data.qvel[fingers])) < 0.03)
 
         self._wait(g.close_time, until=closed)
-        lift_z = max(g.lift_height, pos[2] + g.min_lift)
         self._move(np.array([pos[0], pos[1], lift_z]), None, g.lift_speed, g.yaw_speed)
         self._wait(g.hold_time)
         held = self._held()
@@ -143,8 +161,11 @@ class Trial(GripperControl):
         info["in_hand"] = self._in_hand().tolist()
         info["object_lift"] = float(self.data.xipos[self._obj_body][2] - self._scene["object_com"][2])
         grasp_ok = held and lifted
+        self._grasp_held = grasp_ok
         if not grasp_ok:
             return TrialResult(False, False, True, FailureReason.GRASP_FAILED, info)
+        if stuck is not None:
+            raise stuck  # the grasp held, but the arm cannot make the task's moves from it
         if self.task is None:
             return TrialResult(True, False, True, FailureReason.NONE, info)
         # Transport to the start pose, high above the props, then down.
@@ -153,13 +174,18 @@ class Trial(GripperControl):
         start = start + rng.uniform(-an, an, size=3)
         start_yaw += float(rng.uniform(-ayn, ayn))
         # Turn the wrist the short way round to the start yaw.
-        cur_yaw = float(self.data.act[3])
-        start_yaw = cur_yaw + (start_yaw - cur_yaw + np.pi) % (2 * np.pi) - np.pi
+        cur_yaw = self._setpoint()[1]
+        start_yaw = cur_yaw + (start_yaw - cur_yaw + np.pi) % (2 * np.pi) - np.pi + self._arm_turn
         if start[2] < min_z:  # the arm does not drive the fingertips into the table
             info["start_z_clamped"] = float(start[2])
             start[2] = min_z
         info["start_pose"] = [*map(float, start), float(start_yaw)]
         high = start[2] + g.start_clearance
+        if self._arm is not None:  # the transport, the start pose and the motion, from where the arm is
+            steps = task_steps(self.config, self.task, start, start_yaw)
+            stuck = reach_steps(self._arm.ik, steps, self._arm.setpoints(self.data)).stuck
+            if stuck is not None:
+                raise stuck
         hit_before = [False]
 
         def watch_props() -> None:
@@ -198,8 +224,9 @@ class Trial(GripperControl):
                 watch_props(geoms)
 
         for motion in self.task.primitive():
-            target = d.act[:3] + np.asarray(motion.delta)
-            yaw = float(d.act[3] + motion.dyaw)
+            here, here_yaw = self._setpoint()
+            target = here + np.asarray(motion.delta)
+            yaw = here_yaw + motion.dyaw
             self._move(target, yaw, motion.speed or g.linear_speed, motion.yaw_speed or g.yaw_speed, watch)
         held_after = self._held()
         settle = getattr(self.task.config, "settle_time", 0.2)

@@ -30,6 +30,8 @@ class FailureReason(StrEnum):
     TASK_FAILED = "task_failed"  # the tool touched the targets but the success condition did not hold
     TIMEOUT = "timeout"  # the targets were still moving when the time allowed ran out
     UNSTABLE = "unstable"  # NaN, explosion or deep penetration: the episode is invalid
+    UNREACHABLE = "unreachable"  # an arm cannot reach a pose the trial needs (no inverse kinematics)
+    JOINT_LIMIT = "joint_limit"  # an arm reaches a pose the trial needs only past a joint's range
 
 
 @dataclass(frozen=True)

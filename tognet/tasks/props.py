@@ -58,8 +58,7 @@ class PropsHost(Protocol):
     @property
     def task(self) -> Task | None: ...
 
-    @property
-    def hand_qadr(self) -> int: ...  # qpos address of the gripper base's x (its y follows)
+    def hand_xy(self) -> tuple[float, float]: ...  # where the hand (the grasp centre) is now, world x, y
 
     def object_pose(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
 

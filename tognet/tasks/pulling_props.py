@@ -109,7 +109,6 @@ class PullingProps(TaskProps):
         self._reach = host.object_reach + self.config.can_radius + 0.1
         self._hand_reach = 0.5 * g.max_opening + g.pad_size[0] + 0.03 + self.config.can_radius + 0.1
         self._obj_body = host.object_body
-        self._hand_qadr = host.hand_qadr
 
     # --- scene ----------------------------------------------------------------------------------------
     def place(self, layout: dict[str, Any]) -> None:
@@ -137,7 +136,7 @@ class PullingProps(TaskProps):
         d = self.host.data
         cx, cy = float(d.qpos[self._qadr]), float(d.qpos[self._qadr + 1])
         ox, oy = d.xpos[self._obj_body, :2]
-        hx, hy = float(d.qpos[self._hand_qadr]), float(d.qpos[self._hand_qadr + 1])
+        hx, hy = self.host.hand_xy()
         return (
             math.hypot(float(ox) - cx, float(oy) - cy) < self._reach
             or math.hypot(hx - cx, hy - cy) < self._hand_reach

@@ -82,7 +82,6 @@ class SweepingProps(TaskProps):
         self._hand_reach = 0.5 * g.max_opening + g.pad_size[0] + 0.03 + margin
         self._obj_reach = host.object_reach + margin
         self._obj_body = host.object_body
-        self._hand_qadr = host.hand_qadr
         self._body_vertices = host.body_vertices
         # A can whose centre is below the table top by more than its half-diagonal is wholly beside the
         # table, unsupported: it will reach the ground, so it counts as there (its fall is not simulated).
@@ -208,7 +207,7 @@ class SweepingProps(TaskProps):
         d = self.host.data
         margin, obj_body = self._margin, self._obj_body
         ox, oy = float(d.xpos[obj_body, 0]), float(d.xpos[obj_body, 1])
-        hx, hy = float(d.qpos[self._hand_qadr]), float(d.qpos[self._hand_qadr + 1])
+        hx, hy = self.host.hand_xy()
         if cans is None:
             where = [(float(q[0]), float(q[1])) for q, *_ in self.held.values()]
         else:

@@ -34,6 +34,20 @@ TCP_SITE = PREFIX + "tcp"
 BASE_BODY = PREFIX + "mount"
 
 
+@dataclass(frozen=True)
+class HandMount:
+    """A hand of the caller's own to mount on the arm's flange in place of the arm's gripper.
+
+    ``body`` is one MJCF ``<body>`` element (as text, names left as they are) whose frame is the grasp
+    centre with its z axis pointing back towards the flange and its x axis along the jaw: tognet's
+    simulated hand (:mod:`tognet.sim.world`). It is mounted ``offset`` metres out of the flange, turned
+    half a turn about x, and the ``arm_tcp`` site goes at its origin with z out of the hand."""
+
+    body: str
+    offset: float
+    yaw: float = 0.0  # the hand turned by this (rad) about the flange's axis
+
+
 class RobotExtraMissing(TognetError):
     """The optional ``robot`` extra (robosuite's models, mink) is not installed."""
 
@@ -55,6 +69,7 @@ class ArmSpec:
     home: tuple[float, ...]  # a joint configuration with the hand above the table, pointing down
     base_pos: tuple[float, float, float]  # default base position in tognet's world frame (m)
     base_yaw: float  # default base yaw (rad): the arm's front (its base x axis) faces the table
+    hand_yaw: float = 0.0  # a hand of tognet's turned by this about the flange axis (HandMount.yaw)
 
 
 ARMS: dict[str, ArmSpec] = {
@@ -70,6 +85,9 @@ ARMS: dict[str, ArmSpec] = {
         home=(0.0, -0.3, 0.0, -2.2, 0.0, 1.9, 0.785),
         base_pos=(0.0, -0.5, 0.0),
         base_yaw=math.pi / 2,
+        # Measured: with the hand turned so, joint 7 (+-166 deg) sits near the middle of its range when
+        # the hand points the tasks' way (yaw 0) over the table, so the turns a trial makes fit in it.
+        hand_yaw=2.0,
     ),
     "sawyer": ArmSpec(
         name="sawyer",
@@ -205,16 +223,27 @@ def _tcp_frame(name: str) -> tuple[tuple[float, float, float], tuple[float, floa
 
 def _arm_xml(spec: ArmSpec, base_pos: tuple[float, float, float], base_yaw: float,
              ground_z: float | None, visual: bool,
-             tcp: tuple[tuple[float, float, float], tuple[float, float, float, float]] | None) -> str:
+             tcp: tuple[tuple[float, float, float], tuple[float, float, float, float]] | None,
+             mount: HandMount | None = None) -> str:
     folder = assets_dir()
     robot = _load_part(folder / spec.robot_xml, visual)
-    gripper = _load_part(folder / spec.gripper_xml, visual)
     _prefix(robot)
-    _prefix(gripper)
     hand = next(b for b in robot.iter("body") if b.get("name") == PREFIX + spec.hand_body)
-    hand.extend(list(gripper.find("worldbody")))
-    for tag in ("asset", "default"):
-        _merge_section(robot, gripper, tag)
+    if mount is not None:
+        c, s = math.cos(0.5 * mount.yaw), math.sin(0.5 * mount.yaw)
+        # Turned by yaw about the flange's z, then half a turn about x: (c, 0, 0, s) * (0, 1, 0, 0).
+        holder = ET.SubElement(hand, "body", name=PREFIX + "hand_mount", pos=f"0 0 {mount.offset!r}",
+                               quat=f"0 {c!r} {s!r} 0")
+        holder.append(ET.fromstring(mount.body))
+        ET.SubElement(hand, "site", name=TCP_SITE, pos=f"0 0 {mount.offset!r}", quat=f"{c!r} 0 0 {s!r}",
+                      size="0.005", rgba="0 1 0 0.5", group="3")
+        tcp = None
+    else:
+        gripper = _load_part(folder / spec.gripper_xml, visual)
+        _prefix(gripper)
+        hand.extend(list(gripper.find("worldbody")))
+        for tag in ("asset", "default"):
+            _merge_section(robot, gripper, tag)
     if tcp is not None:
         eef = next(b for b in robot.iter("body") if b.get("name") == PREFIX + spec.eef_body)
         pos, quat = tcp
@@ -222,14 +251,14 @@ def _arm_xml(spec: ArmSpec, base_pos: tuple[float, float, float], base_yaw: floa
                       quat=" ".join(map(repr, quat)), size="0.005", rgba="0 1 0 0.5", group="3")
     # Everything under one mount body placed at the base pose; a pedestal from the ground to the base.
     world = robot.find("worldbody")
-    mount = ET.Element("body", name=BASE_BODY, pos=" ".join(map(repr, base_pos)),
-                       euler=f"0 0 {base_yaw!r}")
-    mount.extend(list(world))
+    base = ET.Element("body", name=BASE_BODY, pos=" ".join(map(repr, base_pos)),
+                      euler=f"0 0 {base_yaw!r}")
+    base.extend(list(world))
     world.clear()
-    world.append(mount)
+    world.append(base)
     if ground_z is not None and ground_z < base_pos[2]:
         half = 0.5 * (base_pos[2] - ground_z)
-        ET.SubElement(mount, "geom", name=PREFIX + "pedestal", type="cylinder", size=f"0.1 {half!r}",
+        ET.SubElement(base, "geom", name=PREFIX + "pedestal", type="cylinder", size=f"0.1 {half!r}",
                       pos=f"0 0 {-half!r}", rgba="0.3 0.3 0.3 1")
     compiler = robot.find("compiler")
     if compiler is None:
@@ -239,14 +268,15 @@ def _arm_xml(spec: ArmSpec, base_pos: tuple[float, float, float], base_yaw: floa
 
 
 def arm_xml(name: str, base_pos: tuple[float, float, float] | None = None, base_yaw: float | None = None,
-            ground_z: float | None = None, visual: bool = False) -> str:
-    """The arm ``name`` (with its gripper and the ``arm_tcp`` site) as an MJCF document, its base at
-    ``base_pos`` with yaw ``base_yaw`` (the spec's defaults when None), on a pedestal down to ``ground_z``
-    (none when None). ``visual`` keeps robosuite's high-resolution visual meshes (slow to load)."""
+            ground_z: float | None = None, visual: bool = False, mount: HandMount | None = None) -> str:
+    """The arm ``name`` (with its gripper, or the hand ``mount`` in its place, and the ``arm_tcp`` site)
+    as an MJCF document, its base at ``base_pos`` with yaw ``base_yaw`` (the spec's defaults when None),
+    on a pedestal down to ``ground_z`` (none when None). ``visual`` keeps robosuite's high-resolution
+    visual meshes (slow to load)."""
     spec = arm_spec(name)
     pos = spec.base_pos if base_pos is None else tuple(float(v) for v in base_pos)
     yaw = spec.base_yaw if base_yaw is None else float(base_yaw)
-    return _arm_xml(spec, pos, yaw, ground_z, visual, _tcp_frame(name))
+    return _arm_xml(spec, pos, yaw, ground_z, visual, None if mount else _tcp_frame(name), mount)
 
 
 @dataclass(frozen=True)
@@ -273,11 +303,12 @@ class ArmModel:
 
 
 def load_arm(name: str, base_pos: tuple[float, float, float] | None = None, base_yaw: float | None = None,
-             ground_z: float | None = None, visual: bool = False, servos: bool = False) -> ArmModel:
+             ground_z: float | None = None, visual: bool = False, servos: bool = False,
+             mount: HandMount | None = None) -> ArmModel:
     """Compile the arm ``name`` alone (see :func:`arm_xml`; with :func:`add_servos` if ``servos``) and
     read its joints, limits and TCP site."""
     spec = arm_spec(name)
-    mjcf = arm_xml(name, base_pos, base_yaw, ground_z, visual)
+    mjcf = arm_xml(name, base_pos, base_yaw, ground_z, visual, mount)
     model = mujoco.MjModel.from_xml_string(add_servos(mjcf, name) if servos else mjcf)
     hinges = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE]
     slides = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE]
@@ -330,11 +361,14 @@ def _torque_limits(spec: ArmSpec) -> dict[str, float]:
             for m in root.iter("motor")}
 
 
-def add_servos(mjcf: str, name: str) -> str:
+def add_servos(mjcf: str, name: str, wrist: tuple[float, float, float, float, float] | None = None,
+               gripper: bool = True) -> str:
     """``mjcf`` (holding the arm ``name``, from :func:`arm_xml` or :func:`place_arm`) with the arm driven:
     each joint by an integrated-velocity servo (the control is the setpoint's speed, capped at the joint's
     speed limit; the setpoint stays within the joint's range; the torque within the model's limit), the
-    arm's bodies gravity-compensated, and the gripper's own finger servos (robosuite's, names prefixed)."""
+    arm's bodies gravity-compensated, and the gripper's own finger servos (robosuite's, names prefixed;
+    none when ``gripper`` is False). ``wrist`` (kp, kv, armature, torque limit, joint damping) sets the
+    last joint's servo apart from the others."""
     spec = arm_spec(name)
     root = ET.fromstring(mjcf)
     torques = _torque_limits(spec)
@@ -355,9 +389,19 @@ def add_servos(mjcf: str, name: str) -> str:
         ET.SubElement(actuator, "intvelocity", name=joint + "_servo", joint=joint, kp=repr(SERVO_KP),
                       kv=repr(SERVO_KV), ctrlrange=f"{-speed!r} {speed!r}", actrange=f"{lo} {hi}",
                       forcerange=f"{-torque!r} {torque!r}")
-    gripper = ET.parse(assets_dir() / spec.gripper_xml).getroot()
-    _prefix(gripper)
-    fingers = gripper.find("actuator")
-    if fingers is not None:
-        actuator.extend(list(fingers))
+    if wrist is not None:  # the last joint's servo: (kp, kv, armature, torque limit, joint damping)
+        kp, kv, armature, torque, damping = wrist
+        last = actuator.find(f"intvelocity[@joint='{arm_joints[-1]}']")
+        assert last is not None
+        last.set("kp", repr(kp))
+        last.set("kv", repr(kv))
+        last.set("forcerange", f"{-torque!r} {torque!r}")
+        joints[arm_joints[-1]].set("armature", repr(armature))
+        joints[arm_joints[-1]].set("damping", repr(damping))
+    if gripper:
+        parts = ET.parse(assets_dir() / spec.gripper_xml).getroot()
+        _prefix(parts)
+        fingers = parts.find("actuator")
+        if fingers is not None:
+            actuator.extend(list(fingers))
     return ET.tostring(root, encoding="unicode")
