@@ -43,6 +43,30 @@ TASKS_HELP = (
 )
 
 
+ROBOT_HELP = (
+    "What carries the hand: floating (the default), sawyer or panda (a real arm beside the table, "
+    "pip install 'tognet\\[robot]'); an arm's preset (tognet/sim/robot/presets) goes on top of the config."
+)
+
+
+def robot_config(sim: Any, robot: str | None, option: str = "--robot") -> Any:
+    """The SimConfig ``sim`` with the hand carried by ``robot`` (None: unchanged); one line when the name
+    is unknown or the robot extra is missing (checked before any long work)."""
+    if robot is None:
+        return sim
+    from tognet.sim.config import ROBOTS, with_robot
+
+    if robot not in ROBOTS:
+        raise ValueError(f"unknown {option} {robot!r}: choose from {', '.join(ROBOTS)}")
+    if robot != "floating":
+        from tognet.sim.robot.arms import assets_dir
+        from tognet.sim.robot.ik import _require_mink
+
+        assets_dir()
+        _require_mink()
+    return with_robot(sim, robot)
+
+
 def task_list(spec: str) -> list[str]:
     """The tasks ``--task`` names (see :data:`TASKS_HELP`); an unknown name raises ValueError."""
     from tognet.tasks import PAPER_TASKS, TASK_NAMES

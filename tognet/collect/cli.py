@@ -10,11 +10,13 @@ import typer
 from tognet.cliutil import (
     RAY_ADDRESS_HELP,
     RAY_HELP,
+    ROBOT_HELP,
     TASKS_HELP,
     WORKERS_HELP,
     check_disk,
     check_memory,
     out_folder,
+    robot_config,
     task_list,
     user_errors,
 )
@@ -71,6 +73,7 @@ def collect_cmd(
     ray: bool = typer.Option(False, "--ray", help=RAY_HELP),
     ray_address: str | None = typer.Option(None, "--ray-address", help=RAY_ADDRESS_HELP),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show the progress bar."),
+    robot: str | None = typer.Option(None, "--robot", help=ROBOT_HELP),
 ) -> None:
     """Collect one round of self-supervised trials into a dataset folder (killed, it resumes when run
     again with the same arguments).
@@ -92,6 +95,7 @@ def collect_cmd(
         raise ValueError("--policy epsilon_greedy needs --task-model (the last round's best.pt)")
     out_folder(out)
     cfg = CollectConfig.load(config) if config else CollectConfig()
+    cfg = cfg.replace(sim=robot_config(cfg.sim, robot))
     check_round_size("--episodes", episodes, cfg.scenes_per_job * cfg.trials_per_scene, out)
     records = [r for folder in objects for r in load_catalog(folder)]
     from tognet.model.checkpoint import check_model_role

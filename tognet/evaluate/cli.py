@@ -9,11 +9,13 @@ import typer
 from tognet.cliutil import (
     RAY_ADDRESS_HELP,
     RAY_HELP,
+    ROBOT_HELP,
     TASKS_HELP,
     WORKERS_HELP,
     check_disk,
     check_memory,
     out_folder,
+    robot_config,
     task_list,
     task_models,
     user_errors,
@@ -74,6 +76,7 @@ def evaluate_cmd(
     ray_address: str | None = typer.Option(None, "--ray-address", help=RAY_ADDRESS_HELP),
     resume: bool = typer.Option(False, "--resume", help="Continue an evaluation in --out (same settings)."),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress bars."),
+    robot: str | None = typer.Option(None, "--robot", help=ROBOT_HELP),
 ) -> None:
     """Evaluate the methods on the same unseen test scenes: results.json (success rates with 95 % Wilson
     intervals, paired differences to TOG-Net), report.html and report.md in --out. Killed, it resumes
@@ -93,6 +96,7 @@ def evaluate_cmd(
         check_run_folder(run, tasks)
     models = task_models(task_model)
     cfg = EvalConfig.load(config) if config else EvalConfig()
+    cfg = cfg.replace(sim=robot_config(cfg.sim, robot))
     if scenes_per_job is not None:
         cfg = cfg.replace(scenes_per_job=scenes_per_job)
     groups = len(tasks) * ((len(category) or (0 if objects else 3)) + len(objects))

@@ -75,27 +75,33 @@ def _kinematic_arm(config: SimConfig, hand_body: str, flange_offset: float) -> A
     return load_arm(r.name, r.base_position, r.base_yaw, mount=mount)
 
 
-def arm_driver(config: SimConfig, world: mujoco.MjModel) -> Any:
-    """The :class:`~tognet.sim.robot.driver.ArmDriver` of the arm in the compiled ``world``, its
-    kinematics on the arm's own model with the same hand (built once per config)."""
-    from tognet.sim.robot.driver import ArmDriver
+def arm_solver(config: SimConfig) -> Any:
+    """The :class:`~tognet.sim.robot.driver.ArmSolver` of ``config.robot``: the arm alone carrying the
+    simulator's hand, its IK and the resolved-rate step the simulator drives it with (built once per
+    config and process)."""
+    return _solver(config, hand_body_xml(config), hand_flange_offset(config))
+
+
+@cache
+def _solver(config: SimConfig, hand_body: str, flange_offset: float) -> Any:
+    from tognet.sim.robot.driver import ArmSolver
     from tognet.sim.robot.ik import ArmIK
 
-    arm = _kinematic_arm(config, hand_body_xml(config), hand_flange_offset(config))
+    arm = _kinematic_arm(config, hand_body, flange_offset)
     r = config.robot
-    driver = ArmDriver(arm, ArmIK(arm), world, r.joint_margin, r.damping, r.posture_gain, r.wrist_weight)
+    return ArmSolver(arm, ArmIK(arm), r.joint_margin, r.damping, r.posture_gain, r.wrist_weight)
+
+
+def arm_driver(config: SimConfig, world: mujoco.MjModel) -> Any:
+    """The :class:`~tognet.sim.robot.driver.ArmDriver` of the arm in the compiled ``world``."""
+    from tognet.sim.robot.driver import ArmDriver
+
+    driver = ArmDriver(arm_solver(config), world)
     base = world.body("arm_mount").id
     driver.base_position = np.array(world.body_pos[base], dtype=np.float64)
+    w, _, _, z = world.body_quat[base]
+    driver.base_yaw = float(2.0 * np.arctan2(z, w))
     return driver
-
-
-def arm_kinematics(config: SimConfig) -> tuple[Any, Any]:
-    """The arm of ``config.robot`` alone with the simulator's hand, and its IK (``ArmModel``, ``ArmIK``):
-    what planning checks a grasp's reach with, away from any simulated world."""
-    from tognet.sim.robot.ik import ArmIK
-
-    arm = _kinematic_arm(config, hand_body_xml(config), hand_flange_offset(config))
-    return arm, ArmIK(arm)
 
 
 # --- reach: every pose a trial asks of the arm ------------------------------------------------------------
@@ -147,39 +153,58 @@ def trial_steps(config: SimConfig, task: Any, pos: Any, yaw: float, reference: A
     return steps
 
 
-def reach_steps(ik: Any, steps: list[Step], q: Any = None) -> Reach:
-    """The joint path through ``steps``, each solved from the last: from the arm's joints ``q``, or when
-    None from each start the IK tries for the first step (its wrist turned either way round: the wrist's
-    range has to hold every turn the trial makes), keeping the one that gets furthest."""
-    from tognet.sim.robot.ik import joint_path
+def reach_steps(solver: Any, steps: list[Step], q: Any = None, tolerance: float = 0.002) -> Reach:
+    """Whether the arm follows ``steps`` as the simulator drives it: IK for the first step (from the arm's
+    joints ``q``, or when None from each start the IK tries: its wrist turned either way round, since the
+    wrist's range has to hold every turn the trial makes), then a dry run of the straight moves between
+    the steps (:meth:`~tognet.sim.robot.driver.ArmSolver.dry_run`); the start that gets furthest. The
+    path's times are the joints' speed limits' (``JointPath.min_times``)."""
+    from tognet.sim.robot.ik import IKStatus, JointPath
 
-    poses = [[*np.asarray(p, dtype=np.float64), float(yaw)] for _, p, yaw in steps]
-    home = ik.arm.home
+    arm = solver.arm
+    poses = [(np.asarray(p, dtype=np.float64), float(yaw)) for _, p, yaw in steps]
+    first = np.array([*poses[0][0], poses[0][1]])
     if q is not None:
-        home = home.copy()
-        home[ik.arm.qpos_adr] = q
-        starts = [home]
+        starts = [np.asarray(q, dtype=np.float64)]
     else:
-        starts = ik.seeds(poses[0], home)
-    best = None
+        starts = []
+        for seed in solver.ik.seeds(first, arm.home):
+            result = solver.ik.solve(first, seed)
+            if result.reached:
+                starts.append(result.q)
+        if not starts:
+            result = solver.ik.solve(first)
+            path = JointPath(result.status, 0, np.zeros((0, len(arm.qpos_adr))), np.zeros(0),
+                             np.zeros(0, dtype=np.int64))
+            return Reach(steps, path, ArmStuck(result.status.value, steps[0][0]))
+    best: tuple[list[Any], int | None, str] | None = None
     for start in starts:
-        path = joint_path(ik, poses, start)
-        if path.failed_at is None:
-            return Reach(steps, path, None)
-        if best is None or path.failed_at > best.failed_at:
-            best = path
-    assert best is not None and best.failed_at is not None
-    return Reach(steps, best, ArmStuck(best.status.value, steps[best.failed_at][0]))
+        run = solver.dry_run(start, poses, tolerance)
+        if run[1] is None:
+            best = run
+            break
+        if best is None or run[1] > (best[1] or 0):
+            best = run
+    assert best is not None
+    qs, failed, reason = best
+    qarr = np.array(qs)
+    per_joint = np.abs(np.diff(qarr, axis=0)) / arm.joint_speed_limits
+    times = per_joint.max(axis=1) if len(per_joint) else np.zeros(0)
+    limiting = per_joint.argmax(axis=1) if len(per_joint) else np.zeros(0, dtype=np.int64)
+    status = IKStatus.REACHED if failed is None else IKStatus(reason)
+    path = JointPath(status, failed, qarr, times, limiting)
+    return Reach(steps, path, None if failed is None else ArmStuck(reason, steps[failed][0]))
 
 
-def plan_reach(config: SimConfig, task: Any, ik: Any, pos: Any, yaw: float, reference: Any,
+def plan_reach(config: SimConfig, task: Any, solver: Any, pos: Any, yaw: float, reference: Any,
                action: Any) -> Reach:
     """Whether the arm reaches every pose of a trial (:func:`trial_steps`), turning its wrist to the
     task's start yaw the short way round or, where the wrist's range does not allow it, the long way;
     the first that reaches everything, else the one that got furthest."""
     best: Reach | None = None
     for turn in (0.0, 2 * np.pi, -2 * np.pi) if task is not None else (0.0,):
-        reach = reach_steps(ik, trial_steps(config, task, pos, yaw, reference, action, turn))
+        reach = reach_steps(solver, trial_steps(config, task, pos, yaw, reference, action, turn),
+                            tolerance=config.robot.tracking_tolerance)
         reach = Reach(reach.steps, reach.path, reach.stuck, turn)
         if reach.stuck is None:
             return reach

@@ -9,7 +9,7 @@ from typing import Any
 
 import typer
 
-from tognet.cliutil import out_file, user_errors
+from tognet.cliutil import ROBOT_HELP, out_file, robot_config, user_errors
 from tognet.tasks import DEFAULT_TASK, GRASP_ONLY, SIM_TASKS, TASK_NAMES, get_props, get_task
 
 
@@ -102,6 +102,7 @@ def sim_command(
         None, help="Write the depth image here as a 16-bit PNG in millimetres, with "
         "<stem>.intrinsics.json and <stem>.pose.json beside it: what `tognet plan` reads."),
     config: Path | None = typer.Option(None, help="SimConfig JSON (default: built-in)."),
+    robot: str | None = typer.Option(None, "--robot", help=ROBOT_HELP),
 ) -> None:
     """Run one episode (drop, depth image, grasp, lift, task primitive), print the labels, animate it.
 
@@ -118,7 +119,7 @@ def sim_command(
     from tognet.sim import SimConfig, Simulator
 
     _check_inputs(task, grasp, action, gif, depth_png)
-    cfg = SimConfig.load(config) if config else SimConfig()
+    cfg = robot_config(SimConfig.load(config) if config else SimConfig(), robot)
     if gif is not None:
         from tognet.sim.render import check_renderer
 

@@ -249,9 +249,9 @@ class RobotConfig(Config):
     )
     base_yaw: float | None = doc(None, "The arm's base yaw (rad); None: the arm's default (facing +y).")
     park: tuple[float, float, float] = doc(
-        (0.0, 0.3, 0.45),
-        "Where the hand waits while a scene settles (m), relative to the base's x and y and above the "
-        "table: clear of the object's drop region and of the props.",
+        (0.3, 0.0, 0.45),
+        "Where the hand waits while a scene settles (m): ahead of the base, to its left, and above the "
+        "table (the base's frame): clear of the object's drop region and of the props.",
     )
     tracking_tolerance: float = doc(
         0.002, "A move has arrived when the joint setpoints put the hand within this (m; rad / 5) of it.",
@@ -320,3 +320,33 @@ class SimConfig(Config):
     def tasks(self) -> Mapping[str, Any]:
         """Every task's config, by task name."""
         return {name: getattr(self, name) for name in TASK_NAMES}
+
+
+def _merge(base: dict[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:
+    out = dict(base)
+    for key, value in over.items():
+        out[key] = _merge(out[key], value) if isinstance(value, Mapping) and isinstance(out.get(key), dict) \
+            else value
+    return out
+
+
+def with_robot(config: SimConfig, name: str) -> SimConfig:
+    """``config`` with the hand carried by ``name`` (one of :data:`ROBOTS`): for an arm, its preset
+    (``tognet/sim/robot/presets/<name>.json``) on top.
+
+    An arm's wrist turns slower than the floating base's (``gripper.yaw_speed``: the Sawyer's last joint
+    4.545 rad/s, the Panda's 2.61, against 9), and a swing carries energy in proportion to the speed
+    squared. The presets scale what a swing works against by that ratio squared (0.255 for the Sawyer,
+    0.084 for the Panda): the wrist's torque limit and the hammering peg's dry friction. The peg then
+    moves as far per unit of the swing's energy as with the floating base, the wrist still cannot push
+    it home slowly (torque / lever below the friction, scaled alike), and the grasps that hammer with
+    the floating base hammer with the arm (benchmarks/RESULTS.md)."""
+    if name not in ROBOTS:
+        raise ValueError(f"unknown robot {name!r}: choose from {', '.join(ROBOTS)}")
+    if name == "floating":
+        return config.replace(robot=config.robot.replace(name="floating"))
+    import json
+    from importlib import resources
+
+    text = resources.files("tognet.sim.robot").joinpath("presets", f"{name}.json").read_text()
+    return SimConfig.from_dict(_merge(config.to_dict(), json.loads(text)), where=f"robot preset {name}")

@@ -163,7 +163,9 @@ class GripperControl(PhysicsCore):
                 lag, speed = arm.lag(self.data)
                 return lag < 0.5 * tol and speed < 0.05
 
-            self._wait(max_time, monitor, until=arrived)
+            # The arm's slower wrist catches up later (at the floating base's wrist torque scaled down with
+            # its speed squared, tognet.sim.config.with_robot): it gets robot.catch_up_time.
+            self._wait(max(max_time, self.config.robot.catch_up_time), monitor, until=arrived)
             return
         q = [self._qadr[n] for n in ("grip_x", "grip_y", "grip_z", "grip_yaw")]
         v = [self._dadr[n] for n in ("grip_x", "grip_y", "grip_z", "grip_yaw")]

@@ -30,7 +30,8 @@ class GifRecorder:
     """Captures a frame every ``every`` physics chunks while attached to a Simulator (``sim.recording``),
     with the simulated time of each, so that :meth:`save` writes a GIF that plays at the real speed.
     ``max_fps``: skip chunks less than 1 / max_fps simulated seconds after the last frame (rendering is
-    the cost: ~30 ms a frame with software GL)."""
+    the cost: ~30 ms a frame with software GL). ``azimuth`` None: the camera looks from the table's side
+    away from an arm (the arm's side without one)."""
 
     def __init__(
         self,
@@ -40,7 +41,7 @@ class GifRecorder:
         every: int = 2,
         lookat: tuple[float, float, float] = (0.0, 0.0, 0.0),
         distance: float = 1.5,
-        azimuth: float = 90.0,
+        azimuth: float | None = None,
         elevation: float = -40.0,
         max_fps: float | None = None,
     ) -> None:
@@ -57,6 +58,9 @@ class GifRecorder:
         self.camera = mujoco.MjvCamera()
         self.camera.lookat[:] = lookat
         self.camera.distance = distance
+        if azimuth is None:  # from the table's -y side; with an arm there (at y < 0), from the other side
+            has_arm = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "arm_mount") >= 0
+            azimuth = -90.0 if has_arm else 90.0
         self.camera.azimuth = azimuth
         self.camera.elevation = elevation
         self.option = mujoco.MjvOption()

@@ -279,9 +279,10 @@ class Simulator(Trial):
             self._set_gripper(np.asarray(PARK), 0.0, g.max_opening)
             return
         if self._arm_park is None:
-            base = self._arm.base_position
-            pose = np.array([base[0] + self.config.robot.park[0], base[1] + self.config.robot.park[1],
-                             self.config.robot.park[2], 0.0])
+            base, yaw = self._arm.base_position, self._arm.base_yaw
+            ahead, left, height = self.config.robot.park
+            c, s = math.cos(yaw), math.sin(yaw)
+            pose = np.array([base[0] + c * ahead - s * left, base[1] + s * ahead + c * left, height, yaw])
             try:
                 self._arm_park = (pose, self._arm.solve(pose, "the park pose"))
             except Exception as exc:

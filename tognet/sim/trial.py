@@ -130,7 +130,7 @@ class Trial(GripperControl):
         self._arm_turn = 0.0
         if self._arm is not None:  # the grasp and the rest of the trial within the arm's reach
             reference = self._scene["reference"]
-            reach = plan_reach(self.config, self.task, self._arm.ik, pos, yaw, reference, action)
+            reach = plan_reach(self.config, self.task, self._arm.solver, pos, yaw, reference, action)
             if reach.stuck is not None and reach.stuck.what in GRASP_STEPS:
                 raise reach.stuck  # the grasp itself is out of reach
             q0, stuck, self._arm_turn = reach.path.q[0], reach.stuck, reach.turn
@@ -182,8 +182,10 @@ class Trial(GripperControl):
         info["start_pose"] = [*map(float, start), float(start_yaw)]
         high = start[2] + g.start_clearance
         if self._arm is not None:  # the transport, the start pose and the motion, from where the arm is
-            steps = task_steps(self.config, self.task, start, start_yaw)
-            stuck = reach_steps(self._arm.ik, steps, self._arm.setpoints(self.data)).stuck
+            here, here_yaw = self._setpoint()
+            steps = [("the lift", here, here_yaw), *task_steps(self.config, self.task, start, start_yaw)]
+            tol = self.config.robot.tracking_tolerance
+            stuck = reach_steps(self._arm.solver, steps, self._arm.setpoints(self.data), tol).stuck
             if stuck is not None:
                 raise stuck
         hit_before = [False]

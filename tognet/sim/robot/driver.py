@@ -17,6 +17,7 @@ drift. A move whose setpoint cannot be caught up with is the trial's ``unreachab
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import mujoco
@@ -38,35 +39,28 @@ class Command:
     pinned: bool  # a joint was stopped at the margin of its range
 
 
-class ArmDriver:
-    """One arm in one compiled world (see the module docstring)."""
+class ArmSolver:
+    """The arm's kinematics (its own small model, the same hand) and the resolved-rate step both the
+    world's driver and the dry run of a trial's moves (:meth:`dry_run`) take."""
 
-    def __init__(self, arm: ArmModel, ik: ArmIK, world: mujoco.MjModel, joint_margin: float,
-                 damping: float, posture_gain: float, wrist_weight: float = 1.0) -> None:
+    def __init__(self, arm: ArmModel, ik: ArmIK, joint_margin: float, damping: float, posture_gain: float,
+                 wrist_weight: float = 1.0) -> None:
         self.arm = arm
         self.ik = ik
-        self.margin = joint_margin
         self.damping = damping
         self.posture_gain = posture_gain
-        names = arm.joint_names
-        self.servos = np.array([world.actuator(f"{j}_servo").id for j in names])
-        self.act_adr = np.array([world.actuator_actadr[i] for i in self.servos])
-        self.qpos_adr = np.array([world.jnt_qposadr[world.joint(j).id] for j in names])
-        self.dof_adr = np.array([world.jnt_dofadr[world.joint(j).id] for j in names])
         lo, hi = arm.joint_limits.T
         self.lo, self.hi = lo + joint_margin, hi - joint_margin
         self.speed = arm.joint_speed_limits
         # How readily each joint moves in the least-squares solve: the wrist (last) ``wrist_weight``
         # times the others, so that a turn of the hand about its axis is the wrist's alone.
-        self.weights = np.ones(len(names))
+        self.weights = np.ones(len(arm.joint_names))
         self.weights[-1] = wrist_weight
         self._kin = mujoco.MjData(arm.model)
         self._jacp = np.zeros((3, arm.model.nv))
         self._jacr = np.zeros((3, arm.model.nv))
-        self.posture = np.array(arm.home[arm.qpos_adr])  # set by teleport
-        self.base_position = np.zeros(3)  # the arm's base in the world (m), set by its builder
+        self.posture = np.array(arm.home[arm.qpos_adr])  # the trial's first configuration
 
-    # --- poses ---------------------------------------------------------------------------------------
     def solve(self, pose: NDArray[np.float64], what: str) -> NDArray[np.float64]:
         """Joint angles for a top-down pose (x, y, z, yaw), from the arm's home; ArmStuck if none."""
         result = self.ik.solve(pose)
@@ -75,34 +69,19 @@ class ArmDriver:
         return result.q
 
     def hand_pose(self, q: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """The TCP's position and rotation at joint angles ``q`` (the arm's own model)."""
+        """The TCP's position and rotation at joint angles ``q``."""
         kin = self._kin
         kin.qpos[self.arm.qpos_adr] = q
         mujoco.mj_kinematics(self.arm.model, kin)
         site = self.arm.tcp_site
         return kin.site_xpos[site].copy(), kin.site_xmat[site].reshape(3, 3).copy()
 
-    # --- the world's joints ----------------------------------------------------------------------------
-    def setpoints(self, data: mujoco.MjData) -> NDArray[np.float64]:
-        return data.act[self.act_adr].copy()
-
-    def place(self, data: mujoco.MjData, q: NDArray[np.float64]) -> None:
-        """Put the arm at rest at ``q`` (joints and servo setpoints) and make it the trial's posture."""
-        data.qpos[self.qpos_adr] = q
-        data.qvel[self.dof_adr] = 0.0
-        data.act[self.act_adr] = q
-        data.ctrl[self.servos] = 0.0
-        self.posture = np.array(q, dtype=np.float64)
-
-    def hold(self, data: mujoco.MjData) -> None:
-        """Stop the setpoints where they are."""
-        data.ctrl[self.servos] = 0.0
-
-    def command(self, data: mujoco.MjData, pos: NDArray[np.float64], yaw: float, horizon: float) -> Command:
-        """Set the servos' speeds so that the joint setpoints bring the hand to (``pos``, ``yaw``) in
-        ``horizon`` seconds, within every joint's speed limit and range (see the module docstring)."""
+    def step(self, q: NDArray[np.float64], pos: NDArray[np.float64],
+             yaw: float) -> tuple[NDArray[np.float64], float, float]:
+        """The joint change that brings the hand from where ``q`` puts it towards (``pos``, ``yaw``): damped,
+        weighted least squares, with the spare freedom pulled back towards :attr:`posture`; and the
+        position (m) and angle (rad) still to go."""
         arm, kin = self.arm, self._kin
-        q = data.act[self.act_adr]
         kin.qpos[arm.qpos_adr] = q
         mujoco.mj_kinematics(arm.model, kin)
         mujoco.mj_comPos(arm.model, kin)
@@ -118,15 +97,98 @@ class ArmDriver:
         if self.posture_gain > 0:
             pull = self.posture_gain * (self.posture - q)
             dq += pull - wj.T @ np.linalg.solve(jjt, jac @ pull)
+        return dq, float(np.linalg.norm(err[:3])), float(np.linalg.norm(err[3:]))
+
+    def dry_run(self, q: NDArray[np.float64], poses: list[tuple[NDArray[np.float64], float]],
+                tolerance: float, max_step: float = 0.01, max_turn: float = 0.05,
+                iterations: int = 60) -> tuple[list[NDArray[np.float64]], int | None, str]:
+        """The trial's moves without physics: from ``q`` (which puts the hand at ``poses[0]``) along the
+        straight line to each next pose, in steps of at most ``max_step`` m / ``max_turn`` rad, as the
+        world's servos follow them (the same step, within the joint ranges), then up to ``iterations``
+        steps to arrive within ``tolerance`` (m; rad / 5). Returns the joint angles at each pose reached,
+        the index of the first pose not reached (None: all) and why ("joint_limit" when a joint stopped
+        at its range on the way, else "unreachable")."""
+        saved = self.posture
+        self.posture = np.array(q, dtype=np.float64)
+        q = self.posture.copy()
+        reached = [q.copy()]
+        try:
+            for i in range(1, len(poses)):
+                (p0, y0), (p1, y1) = poses[i - 1], poses[i]
+                n = max(1, math.ceil(max(float(np.linalg.norm(p1 - p0)) / max_step, abs(y1 - y0) / max_turn)))
+                pinned = False
+                for k in range(1, n + 1):
+                    dq, _, _ = self.step(q, p0 + (p1 - p0) * (k / n), y0 + (y1 - y0) * (k / n))
+                    q, hit = self._clip(q + dq)
+                    pinned = pinned or hit
+                for _ in range(iterations):
+                    dq, ep, ea = self.step(q, p1, y1)
+                    if ep < tolerance and ea < 5 * tolerance:
+                        break
+                    q, hit = self._clip(q + dq)
+                    pinned = pinned or hit
+                else:
+                    return reached, i, "joint_limit" if pinned else "unreachable"
+                reached.append(q.copy())
+            return reached, None, ""
+        finally:
+            self.posture = saved
+
+    def _clip(self, q: NDArray[np.float64]) -> tuple[NDArray[np.float64], bool]:
+        clipped = np.clip(q, self.lo, np.maximum(self.lo, self.hi))
+        return clipped, bool(np.any(clipped != q))
+
+
+class ArmDriver:
+    """One arm in one compiled world (see the module docstring)."""
+
+    def __init__(self, solver: ArmSolver, world: mujoco.MjModel) -> None:
+        self.solver = solver
+        self.arm = solver.arm
+        self.ik = solver.ik
+        names = self.arm.joint_names
+        self.servos = np.array([world.actuator(f"{j}_servo").id for j in names])
+        self.act_adr = np.array([world.actuator_actadr[i] for i in self.servos])
+        self.qpos_adr = np.array([world.jnt_qposadr[world.joint(j).id] for j in names])
+        self.dof_adr = np.array([world.jnt_dofadr[world.joint(j).id] for j in names])
+        self.base_position = np.zeros(3)  # the arm's base in the world (m), set by its builder
+        self.base_yaw = 0.0  # and its yaw (rad)
+
+    def solve(self, pose: NDArray[np.float64], what: str) -> NDArray[np.float64]:
+        """Joint angles for a top-down pose (x, y, z, yaw), from the arm's home; ArmStuck if none."""
+        return self.solver.solve(pose, what)
+
+    # --- the world's joints ----------------------------------------------------------------------------
+    def setpoints(self, data: mujoco.MjData) -> NDArray[np.float64]:
+        return data.act[self.act_adr].copy()
+
+    def place(self, data: mujoco.MjData, q: NDArray[np.float64]) -> None:
+        """Put the arm at rest at ``q`` (joints and servo setpoints) and make it the trial's posture."""
+        data.qpos[self.qpos_adr] = q
+        data.qvel[self.dof_adr] = 0.0
+        data.act[self.act_adr] = q
+        data.ctrl[self.servos] = 0.0
+        self.solver.posture = np.array(q, dtype=np.float64)
+
+    def hold(self, data: mujoco.MjData) -> None:
+        """Stop the setpoints where they are."""
+        data.ctrl[self.servos] = 0.0
+
+    def command(self, data: mujoco.MjData, pos: NDArray[np.float64], yaw: float, horizon: float) -> Command:
+        """Set the servos' speeds so that the joint setpoints bring the hand to (``pos``, ``yaw``) in
+        ``horizon`` seconds, within every joint's speed limit and range (see the module docstring)."""
+        solver = self.solver
+        q = data.act[self.act_adr]
+        dq, ep, ea = solver.step(q, pos, yaw)
         v = dq / horizon
-        slowed = max(1.0, float(np.max(np.abs(v) / self.speed)))
+        slowed = max(1.0, float(np.max(np.abs(v) / solver.speed)))
         v /= slowed
         nxt = q + v * horizon
-        pinned = bool(np.any((nxt < self.lo) & (v < 0)) or np.any((nxt > self.hi) & (v > 0)))
+        pinned = bool(np.any((nxt < solver.lo) & (v < 0)) or np.any((nxt > solver.hi) & (v > 0)))
         if pinned:
-            v = (np.clip(nxt, self.lo, np.maximum(self.lo, self.hi)) - q) / horizon
+            v = (np.clip(nxt, solver.lo, np.maximum(solver.lo, solver.hi)) - q) / horizon
         data.ctrl[self.servos] = v
-        return Command(float(np.linalg.norm(err[:3])), float(np.linalg.norm(err[3:])), slowed, pinned)
+        return Command(ep, ea, slowed, pinned)
 
     def lag(self, data: mujoco.MjData) -> tuple[float, float]:
         """The largest gap between a joint and its setpoint (rad) and the fastest joint speed (rad/s)."""
