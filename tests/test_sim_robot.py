@@ -105,10 +105,10 @@ def test_a_pose_far_outside_the_workspace_is_unreachable(arm):
 
 @needs_extra
 def test_a_pose_too_close_to_the_base_is_a_joint_limit():
-    """20 cm from the Panda's base, 15 cm above the table: the elbow would have to fold past its limit
+    """20 cm in front of the Panda's base, 15 cm above the table: the elbow would have to fold past its limit
     (joint 4's -3.07 rad; without limits the solve converges at about -3.3 rad)."""
     arm = load_arm("panda")
-    result = ArmIK(arm).solve((0.05, -0.3, 0.15, math.pi / 2))
+    result = ArmIK(arm).solve((-0.25, 0.25, 0.15, -math.pi / 2))
     assert result.status is IKStatus.JOINT_LIMIT and not result.reached
     lo, hi = arm.joint_limits.T
     assert np.all(result.q >= lo - 1e-6) and np.all(result.q <= hi + 1e-6)  # the closest within limits

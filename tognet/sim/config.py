@@ -245,13 +245,13 @@ class RobotConfig(Config):
     base_position: tuple[float, float, float] | None = doc(
         None,
         "The arm's base (m, world frame; the table top is z = 0); None: the arm's default, beside the "
-        "table's long side at y < 0, facing it (tognet.sim.robot.arms.ARMS).",
+        "table's long side at y > 0, facing it (tognet.sim.robot.arms.ARMS).",
     )
-    base_yaw: float | None = doc(None, "The arm's base yaw (rad); None: the arm's default (facing +y).")
+    base_yaw: float | None = doc(None, "The arm's base yaw (rad); None: the arm's default (facing -y).")
     park: tuple[float, float, float] = doc(
         (0.3, 0.0, 0.45),
-        "Where the hand waits while a scene settles (m): ahead of the base, to its left, and above the "
-        "table (the base's frame): clear of the object's drop region and of the props.",
+        "Where the hand waits while a scene settles (m, in the base's frame): ahead of the base, to its "
+        "left, above it: clear of the object's drop region and of the props.",
     )
     tracking_tolerance: float = doc(
         0.002, "A move has arrived when the joint setpoints put the hand within this (m; rad / 5) of it.",

@@ -122,12 +122,13 @@ class GripperControl(PhysicsCore):
     ) -> None:
         """An arm's move: the hand's setpoint follows ``profile`` from ``cur`` by ``delta``, the joint
         setpoints after it within the joints' limits; then they get ``robot.catch_up_time`` to arrive."""
-        arm, d, every, r = self._arm, self.data, self.config.episode.check_every, self.config.robot
+        # self.data is read afresh every chunk: the world without the props is swapped in and out.
+        arm, every, r = self._arm, self.config.episode.check_every, self.config.robot
         travelled = np.cumsum(profile) * chunk
         pinned = False
         for k in range(len(profile)):
             self._arm_sp = cur + delta * travelled[k]
-            cmd = arm.command(d, self._arm_sp[:3], float(self._arm_sp[3]), chunk)
+            cmd = arm.command(self.data, self._arm_sp[:3], float(self._arm_sp[3]), chunk)
             pinned = cmd.pinned
             self._step(every)
             if monitor is not None:
@@ -138,12 +139,12 @@ class GripperControl(PhysicsCore):
         waited, limit = 0.0, r.catch_up_time
         tol = r.tracking_tolerance
         while True:
-            cmd = arm.command(d, goal[:3], float(goal[3]), chunk)
+            cmd = arm.command(self.data, goal[:3], float(goal[3]), chunk)
             if cmd.position_error < tol and cmd.angle_error < 5 * tol:
                 break
             pinned = pinned or cmd.pinned
             if waited >= limit:
-                arm.hold(d)
+                arm.hold(self.data)
                 reason = "joint_limit" if pinned else "unreachable"
                 raise ArmStuck(reason, f"a move: {cmd.position_error * 100:.1f} cm and "
                                f"{np.degrees(cmd.angle_error):.0f} deg from the hand's setpoint")
@@ -152,7 +153,7 @@ class GripperControl(PhysicsCore):
             if monitor is not None:
                 monitor()
             self._check_stable()
-        arm.hold(d)
+        arm.hold(self.data)
 
     def _converge(self, tol: float = 0.002, max_time: float = 0.2, monitor: Any = None) -> None:
         """Let the base catch up with its setpoints (servo lag) until within ``tol`` (m, rad) and slow."""

@@ -282,7 +282,8 @@ class Simulator(Trial):
             base, yaw = self._arm.base_position, self._arm.base_yaw
             ahead, left, height = self.config.robot.park
             c, s = math.cos(yaw), math.sin(yaw)
-            pose = np.array([base[0] + c * ahead - s * left, base[1] + s * ahead + c * left, height, yaw])
+            x, y = base[0] + c * ahead - s * left, base[1] + s * ahead + c * left
+            pose = np.array([x, y, base[2] + height, yaw])
             try:
                 self._arm_park = (pose, self._arm.solve(pose, "the park pose"))
             except Exception as exc:
