@@ -196,6 +196,8 @@ class Trial(GripperControl):
 
         self._every_step = watch_props  # near the props, every step's contacts are looked at
         self._move(np.array([start[0], start[1], high]), start_yaw, g.linear_speed, g.yaw_speed, watch_props)
+        if self._arm is not None:  # an arm's slower wrist finishes turning above the props, not among them
+            self._converge(monitor=watch_props)
         self._move(start, None, g.linear_speed, g.yaw_speed, watch_props)
         self._converge(monitor=watch_props)
         self._every_step = None

@@ -74,6 +74,8 @@ class ArmSpec:
     base_pos: tuple[float, float, float]
     base_yaw: float
     hand_yaw: float = 0.0  # a hand of tognet's turned by this about the flange axis (HandMount.yaw)
+    # Bodies whose mass, centre of mass and diagonal inertia replace the model's, (body, mass, pos, inertia).
+    inertials: tuple[tuple[str, float, tuple[float, float, float], tuple[float, float, float]], ...] = ()
 
 
 ARMS: dict[str, ArmSpec] = {
@@ -92,6 +94,13 @@ ARMS: dict[str, ArmSpec] = {
         # Chosen by measurement (benchmarks/RESULTS.md): with the hand turned so on the flange, joint 7's
         # +-166 degrees hold the turns the tasks' trials make most often.
         hand_yaw=0.43,
+        # robosuite's Panda gives each link a placeholder inertia (0.1 x its mass on each axis): link 7 and
+        # the flange body it carries 0.05 kg m^2 each, 30 times what the wrist of the real arm turns (the
+        # identified link 7: 0.74 kg, I_zz 0.0048 kg m^2) and what its 2.6 rad/s swing can accelerate.
+        inertials=(
+            ("link7", 0.735522, (0.0, 0.0, 0.08), (0.012516, 0.010027, 0.004815)),
+            ("right_hand", 0.001, (0.0, 0.0, 0.0), (1e-6, 1e-6, 1e-6)),
+        ),
     ),
     "sawyer": ArmSpec(
         name="sawyer",
@@ -233,6 +242,16 @@ def _arm_xml(spec: ArmSpec, base_pos: tuple[float, float, float], base_yaw: floa
     robot = _load_part(folder / spec.robot_xml, visual)
     _prefix(robot)
     hand = next(b for b in robot.iter("body") if b.get("name") == PREFIX + spec.hand_body)
+    for body_name, mass, com, inertia in spec.inertials:
+        body = next(b for b in robot.iter("body") if b.get("name") == PREFIX + body_name)
+        inertial = body.find("inertial")
+        if inertial is None:
+            inertial = ET.SubElement(body, "inertial")
+        for key in list(inertial.attrib):
+            del inertial.attrib[key]
+        inertial.set("pos", " ".join(map(repr, com)))
+        inertial.set("mass", repr(mass))
+        inertial.set("diaginertia", " ".join(map(repr, inertia)))
     if mount is not None:
         c, s = math.cos(0.5 * mount.yaw), math.sin(0.5 * mount.yaw)
         # Turned by yaw about the flange's z, then half a turn about x: (c, 0, 0, s) * (0, 1, 0, 0).
