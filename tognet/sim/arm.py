@@ -164,28 +164,30 @@ def reach_steps(solver: Any, steps: list[Step], q: Any = None, tolerance: float 
     arm = solver.arm
     poses = [(np.asarray(p, dtype=np.float64), float(yaw)) for _, p, yaw in steps]
     first = np.array([*poses[0][0], poses[0][1]])
-    if q is not None:
-        starts = [np.asarray(q, dtype=np.float64)]
-    else:
-        starts = []
+    def starts() -> Any:  # lazily: most trials need the first only
+        if q is not None:
+            yield np.asarray(q, dtype=np.float64)
+            return
+        tried: list[Any] = []
         for seed in solver.ik.seeds(first, arm.home):
             result = solver.ik.solve(first, seed)
-            if result.reached:
-                starts.append(result.q)
-        if not starts:
-            result = solver.ik.solve(first)
-            path = JointPath(result.status, 0, np.zeros((0, len(arm.qpos_adr))), np.zeros(0),
-                             np.zeros(0, dtype=np.int64))
-            return Reach(steps, path, ArmStuck(result.status.value, steps[0][0]))
+            if result.reached and not any(np.allclose(result.q, t, atol=1e-2) for t in tried):
+                tried.append(result.q)
+                yield result.q
+
     best: tuple[list[Any], int | None, str] | None = None
-    for start in starts:
+    for start in starts():
         run = solver.dry_run(start, poses, tolerance)
         if run[1] is None:
             best = run
             break
         if best is None or run[1] > (best[1] or 0):
             best = run
-    assert best is not None
+    if best is None:  # no IK solution for the first step
+        result = solver.ik.solve(first)
+        path = JointPath(result.status, 0, np.zeros((0, len(arm.qpos_adr))), np.zeros(0),
+                         np.zeros(0, dtype=np.int64))
+        return Reach(steps, path, ArmStuck(result.status.value, steps[0][0]))
     qs, failed, reason = best
     qarr = np.array(qs)
     per_joint = np.abs(np.diff(qarr, axis=0)) / arm.joint_speed_limits

@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 from tognet.sim.physics import ArmStuck
 from tognet.sim.robot.arms import ArmModel
-from tognet.sim.robot.ik import ArmIK, grasp_frame
+from tognet.sim.robot.ik import ArmIK
 
 
 @dataclass
@@ -60,6 +60,7 @@ class ArmSolver:
         self._jacp = np.zeros((3, arm.model.nv))
         self._jacr = np.zeros((3, arm.model.nv))
         self.posture = np.array(arm.home[arm.qpos_adr])  # the trial's first configuration
+        self._damping_eye = damping**2 * np.eye(6)
 
     def solve(self, pose: NDArray[np.float64], what: str) -> NDArray[np.float64]:
         """Joint angles for a top-down pose (x, y, z, yaw), from the arm's home; ArmStuck if none."""
@@ -89,18 +90,27 @@ class ArmSolver:
         mujoco.mj_jacSite(arm.model, kin, self._jacp, self._jacr, site)
         jac = np.vstack([self._jacp[:, arm.dof_adr], self._jacr[:, arm.dof_adr]])
         rot = kin.site_xmat[site].reshape(3, 3)
-        goal = grasp_frame((0.0, 0.0, 0.0, yaw))[:3, :3]
-        err = np.concatenate([pos - kin.site_xpos[site], 0.5 * np.cross(rot.T, goal.T).sum(axis=0)])
+        c, s = math.cos(yaw), math.sin(yaw)
+        goal = np.array([[c, s, 0.0], [s, -c, 0.0], [0.0, 0.0, -1.0]])  # grasp_frame's axes as columns
+        # Orientation error 0.5 * sum_i r_i x g_i (columns of the current and the goal rotation): the axial
+        # vector of G R^T - R G^T.
+        skew = goal @ rot.T
+        skew -= skew.T
+        err = np.empty(6)
+        err[:3] = pos - kin.site_xpos[site]
+        err[3:] = 0.5 * skew[2, 1], 0.5 * skew[0, 2], 0.5 * skew[1, 0]
         wj = jac * self.weights  # weighted least squares: J W^-1 with W^-1 = diag(weights)
-        jjt = wj @ jac.T + self.damping**2 * np.eye(6)
-        dq = wj.T @ np.linalg.solve(jjt, err)
+        jjt = wj @ jac.T + self._damping_eye
         if self.posture_gain > 0:
             pull = self.posture_gain * (self.posture - q)
-            dq += pull - wj.T @ np.linalg.solve(jjt, jac @ pull)
+            sol = np.linalg.solve(jjt, np.column_stack([err, jac @ pull]))
+            dq = wj.T @ (sol[:, 0] - sol[:, 1]) + pull
+        else:
+            dq = wj.T @ np.linalg.solve(jjt, err)
         return dq, float(np.linalg.norm(err[:3])), float(np.linalg.norm(err[3:]))
 
     def dry_run(self, q: NDArray[np.float64], poses: list[tuple[NDArray[np.float64], float]],
-                tolerance: float, max_step: float = 0.01, max_turn: float = 0.05,
+                tolerance: float, max_step: float = 0.02, max_turn: float = 0.1,
                 iterations: int = 60) -> tuple[list[NDArray[np.float64]], int | None, str]:
         """The trial's moves without physics: from ``q`` (which puts the hand at ``poses[0]``) along the
         straight line to each next pose, in steps of at most ``max_step`` m / ``max_turn`` rad, as the
