@@ -1,6 +1,7 @@
 """Full simulated episodes per second on one core, per task, and where the time goes.
 
     .venv/bin/python benchmarks/bench_episodes.py [--episodes 60] [--repeats 3] [--config SIM.json]
+        [--robot sawyer]
 
 An episode = reset (drop and settle the object, disturb the camera, ray-cast the depth image, place the
 props) + execute (approach, close, lift, hold, transport, the task's primitive, labels). Tools: the
@@ -32,6 +33,7 @@ from tognet.config import ConfigError
 from tognet.objects.generate import generate_set
 from tognet.objects.handmade import grasp_on_object, make_test_tools
 from tognet.sim import SimConfig, Simulator
+from tognet.sim.config import ROBOTS, with_robot
 from tognet.tasks import TASK_NAMES, get_props, get_task
 
 _REFERENCE_XML = """
@@ -150,9 +152,12 @@ def main() -> None:
     parser.add_argument("--tasks", nargs="+", default=list(TASK_NAMES), choices=TASK_NAMES,
                         help="tasks to time (default: every registered task)")
     parser.add_argument("--config", type=Path, help="SimConfig JSON to time instead of the defaults")
+    parser.add_argument("--robot", choices=ROBOTS, help="what carries the hand (an arm: its preset on top)")
     args = parser.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     cfg = _load_config(parser, args.config)
+    if args.robot:
+        cfg = with_robot(cfg, args.robot)
     with tempfile.TemporaryDirectory() as tmp:
         tools = make_test_tools(tmp + "/tools")
         prims = generate_set("primitive", "train", 4, tmp + "/prim")
