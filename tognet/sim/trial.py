@@ -126,14 +126,7 @@ class Trial(GripperControl):
             info["grasp_z_clamped"] = float(pos[2])
             pos[2] = min_z
         lift_z = max(g.lift_height, pos[2] + g.min_lift)
-        q0, stuck = None, None
-        self._arm_turn = 0.0
-        if self._arm is not None:  # the grasp and the rest of the trial within the arm's reach
-            reference = self._scene["reference"]
-            reach = plan_reach(self.config, self.task, self._arm.solver, pos, yaw, reference, action)
-            if reach.stuck is not None and reach.stuck.what in GRASP_STEPS:
-                raise reach.stuck  # the grasp itself is out of reach
-            q0, stuck, self._arm_turn = reach.path.q[0], reach.stuck, reach.turn
+        q0, stuck = self._arm_start(pos, yaw, action)
         self._set_gripper(pos + np.array([0, 0, g.approach_height]), yaw, g.max_opening, q0)
         mujoco.mj_forward(self.model, self.data)
         props_at_rest = self._props.positions()
@@ -168,7 +161,30 @@ class Trial(GripperControl):
             raise stuck  # the grasp held, but the arm cannot make the task's moves from it
         if self.task is None:
             return TrialResult(True, False, True, FailureReason.NONE, info)
-        # Transport to the start pose, high above the props, then down.
+        start, start_yaw = self._start_pose(action, rng, info, min_z)
+        return self._transport(start, start_yaw, props_at_rest, info)
+
+    def _arm_start(self, pos: Any, yaw: float, action: Any) -> tuple[Any, ArmStuck | None]:
+        """With an arm: its joint angles at the start of the approach, from which it reaches the grasp and
+        the rest of the trial (ArmStuck raised when the grasp itself is out of reach; returned when a
+        later step is, so that the grasp still runs and S_G is measured). (None, None) without one."""
+        self._arm_turn = 0.0
+        if self._arm is None:
+            return None, None
+        reference = self._scene["reference"]
+        reach = plan_reach(self.config, self.task, self._arm.solver, pos, yaw, reference, action)
+        if reach.stuck is not None and reach.stuck.what in GRASP_STEPS:
+            raise reach.stuck  # the grasp itself is out of reach
+        self._arm_turn = reach.turn
+        return reach.path.q[0], reach.stuck
+
+    def _start_pose(
+        self, action: Any, rng: np.random.Generator, info: dict[str, Any], min_z: float
+    ) -> tuple[NDArray[np.float64], float]:
+        """The motion's start pose (with execution noise) and yaw, the wrist turned to it the short way
+        round (an arm: the way its reach check chose); with an arm, checked within reach from here."""
+        assert self.task is not None
+        e = self.config.episode
         start, start_yaw = self.task.start_pose(self._scene["reference"], action)
         an, ayn = e.action_position_noise, e.action_yaw_noise
         start = start + rng.uniform(-an, an, size=3)
@@ -180,7 +196,6 @@ class Trial(GripperControl):
             info["start_z_clamped"] = float(start[2])
             start[2] = min_z
         info["start_pose"] = [*map(float, start), float(start_yaw)]
-        high = start[2] + g.start_clearance
         if self._arm is not None:  # the transport, the start pose and the motion, from where the arm is
             here, here_yaw = self._setpoint()
             steps = [("the lift", here, here_yaw), *task_steps(self.config, self.task, start, start_yaw)]
@@ -188,6 +203,14 @@ class Trial(GripperControl):
             stuck = reach_steps(self._arm.solver, steps, self._arm.setpoints(self.data), tol).stuck
             if stuck is not None:
                 raise stuck
+        return start, start_yaw
+
+    def _transport(
+        self, start: NDArray[np.float64], start_yaw: float, props_at_rest: Any, info: dict[str, Any]
+    ) -> TrialResult:
+        """Transport to the start pose, high above the props, then down; then the primitive."""
+        g, e = self.config.gripper, self.config.episode
+        high = start[2] + g.start_clearance
         hit_before = [False]
 
         def watch_props() -> None:
