@@ -491,6 +491,17 @@ def _tables(results: dict[str, Any]) -> list[tuple[str, list[Table]]]:
     return sections
 
 
+def _carrier_line(robot: dict[str, Any]) -> str:
+    """What carried the hand in the evaluation (``SimConfig.robot``; older results: the floating base)."""
+    name = robot.get("name", "floating")
+    if name == "floating":
+        return "The hand on the floating x, y, z, yaw base (no arm)."
+    base = robot.get("base_position")
+    where = f"its base at {base}" if base else "at its default base pose"
+    return (f"The hand carried by the {name} arm ({where}; its preset, tognet/sim/robot/presets/{name}.json, "
+            "on top of the config): joint speed limits, ranges and reach count.")
+
+
 def _settings_lines(results: dict[str, Any], run: Path | None) -> list[str]:
     s, r = results["settings"], results["run"]
     eps = r.get("episodes_per_s_now")
@@ -504,6 +515,7 @@ def _settings_lines(results: dict[str, Any], run: Path | None) -> list[str]:
            + (f" ({eps:.2f} episodes/s on {r['workers']} workers)" if eps else "")
            if r["episodes_run_now"] else "every episode was already there (this run re-rendered the report)")
         + ".",
+        _carrier_line(s.get("config", {}).get("sim", {}).get("robot", {})),
         f"Training curves from {run}" if run else "No pipeline run folder given: no training curves.",
     ]
     if r.get("job_errors"):
