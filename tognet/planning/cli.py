@@ -72,10 +72,10 @@ def plan_cmd(
         "simulator's hand (pip install 'tognet\\[robot]'): only grasps and motions it reaches (the task's "
         "motion too when --reference is given), and the joint trajectory in --out's JSON (robot)."),
     base_pose: Path | None = typer.Option(
-        None, "--base-pose", help="The --robot arm's base: JSON {\"position\": \\[x, y, z], \"yaw\": rad} (m, "
-        "in the frame of --reference: the world frame of --camera-pose, else the plan's table frame; z = 0 "
-        "the table top). Default: the arm's own, 0.6 m (sawyer) or 0.5 m (panda) from the origin at -y, "
-        "facing +y."),
+        None, "--base-pose", help="The --robot arm's base: JSON {\"position\": \\[x, y, z], \"yaw\": rad} "
+        "(m, in the frame of --reference: the world frame of --camera-pose, else the plan's table frame; "
+        "z = 0 the table top). Default: the arm's own, 0.6 m (sawyer) or 0.5 m (panda) from the origin at "
+        "-y, facing +y."),
 ) -> None:
     """Plan a task-oriented grasp and the task's motion on one depth image from your own camera.
 
@@ -106,8 +106,8 @@ def plan_cmd(
         from tognet.planning.reach import load_base_pose, require_robot_extra
         from tognet.sim.config import RobotConfig
 
-        require_robot_extra()
         position, yaw = load_base_pose(base_pose) if base_pose is not None else (None, None)
+        require_robot_extra()
         arm = RobotConfig(name=robot, base_position=position, base_yaw=yaw)  # type: ignore[arg-type]
     cfg = UserPlanConfig.load(config) if config is not None else UserPlanConfig()
     cfg = cfg.replace(top=top, seed=seed)
