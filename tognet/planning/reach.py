@@ -43,7 +43,13 @@ from tognet.policies.view import GraspPick, SceneView
 
 
 class OutOfReach(PlanningError):
-    """No grasp the planner would take is within the arm's reach; the message says where they fail."""
+    """No grasp the planner would take is within the arm's reach; the message says where they fail, and
+    ``dropped`` (:class:`Dropped`) and ``passed`` (the grasps checked, :class:`Passed`) say it in numbers."""
+
+    def __init__(self, message: str, dropped: Dropped | None = None, passed: tuple[Passed, ...] = ()) -> None:
+        super().__init__(message)
+        self.dropped = dropped
+        self.passed = passed
 
 
 class BasePoseError(TognetError):
@@ -324,7 +330,7 @@ class ArmReach:
                 counts[what] = counts.get(what, 0) + 1
         dropped = Dropped(len(far), counts)
         if len(far) and far.all():
-            raise OutOfReach(self._message(dropped, [], False))
+            raise OutOfReach(self._message(dropped, [], False), dropped)
         return ~far, dropped
 
     def filter(self, candidates: GraspCandidates) -> tuple[GraspCandidates, Dropped]:
@@ -415,12 +421,12 @@ class ArmReach:
                                      reach, rank, tuple(passed), skipped, dropped, len(checked),
                                      time.perf_counter() - t0, with_task))
         if not found:
-            raise OutOfReach(self._message(dropped, passed, len(passed) >= cfg.tries))
+            raise OutOfReach(self._message(dropped, passed, len(passed) >= cfg.tries), dropped, tuple(passed))
         return found
 
     def out_of_reach(self, dropped: Dropped, passed: list[Passed]) -> OutOfReach:
         """The error of a search (the Oracle's) that found every grasp it looked at out of reach."""
-        return OutOfReach(self._message(dropped, passed, False))
+        return OutOfReach(self._message(dropped, passed, False), dropped, tuple(passed))
 
     def search_info(self, dropped: Dropped, passed: list[Passed], reached: int) -> dict[str, Any]:
         """What a search's plan (the Oracle's) says about its reach: the candidates dropped before it, the
