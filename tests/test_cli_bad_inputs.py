@@ -13,6 +13,7 @@ Placeholders ``@name`` in a case's arguments are files and folders made once for
 from __future__ import annotations
 
 import contextlib
+import importlib.util
 import io
 import json
 import os
@@ -29,6 +30,8 @@ import pytest
 from tognet.cli import main
 
 MODELS = Path(__file__).resolve().parent.parent / "tognet" / "models"
+#: The robot extra (robosuite's arm models, mink): without it `plan --robot` says how to install it.
+HAVE_ROBOT = all(importlib.util.find_spec(name) is not None for name in ("robosuite", "mink"))
 
 #: A tqdm progress bar's text (what may accompany the error line on stderr).
 _BAR = re.compile(r"\d+%\||\|\s*\d+/\d+|\d+/\d+ \[|\?\w+/s\]|it/s\]")
@@ -156,6 +159,11 @@ def ws(tmp_path_factory):
     def config(name, data):
         (root / name).write_text(json.dumps(data))
 
+    config("base_far.json", {"position": [0.0, -3.0, 0.0], "yaw": 1.57})
+    config("base_fields.json", {"pos": [0.0, -0.6, 0.0], "yaw": 1.57})
+    config("base_short.json", {"position": [0.0, -0.6], "yaw": 1.57})
+    config("base_mm.json", {"position": [0.0, -600.0, 0.0], "yaw": 1.57})
+    (root / "base_nan.json").write_text('{"position": [0.0, NaN, 0.0], "yaw": 1.57}')
     config("sim_dt.json", {"physics": {"timestep": -0.01}})
     config("sim_dt0.json", {"physics": {"timestep": 0.0}})
     config("sim_opening.json", {"gripper": {"max_opening": -0.08}})
@@ -490,6 +498,19 @@ CASES: dict[str, Case] = {
     "plan-overlay-sys": Case(f"{PP} --overlay /sys/tognet-o.png", "/sys"),
     "plan-overlay-suffix": Case(f"{PP} --overlay @out/o.jpg", ".png"),
     "plan-reference-nan": Case(f"{PP} --reference nan 0 0", "--reference"),
+    "plan-robot-unknown": Case(f"{PP} --robot ur5", "ur5"),
+    "plan-base-pose-without-robot": Case(f"{PP} --base-pose @base_far.json", "--robot"),
+    "plan-base-pose-missing": Case(f"{PP} --robot sawyer --base-pose @nope.json", "nope.json"),
+    "plan-base-pose-dir": Case(f"{PP} --robot sawyer --base-pose @adir", "adir"),
+    "plan-base-pose-not-json": Case(f"{PP} --robot sawyer --base-pose @bad.json", "not valid json"),
+    "plan-base-pose-empty": Case(f"{PP} --robot sawyer --base-pose @empty.json", "empty.json"),
+    "plan-base-pose-list": Case(f"{PP} --robot sawyer --base-pose @list.json", "json object"),
+    "plan-base-pose-fields": Case(f"{PP} --robot sawyer --base-pose @base_fields.json", "missing position"),
+    "plan-base-pose-short": Case(f"{PP} --robot panda --base-pose @base_short.json", "3 numbers"),
+    "plan-base-pose-nan": Case(f"{PP} --robot sawyer --base-pose @base_nan.json", "finite"),
+    "plan-base-pose-mm": Case(f"{PP} --robot sawyer --base-pose @base_mm.json", "metres"),
+    "plan-robot-out-of-reach": Case(f"{PP} --robot sawyer --base-pose @base_far.json",
+                                    "no grasp within the sawyer's reach" if HAVE_ROBOT else "tognet[robot]"),
     "plan-top-neg": Case(f"{PP} --top -1", "--top"),
     "plan-seed-neg": Case(f"{PP} --seed -1", "--seed"),
     "plan-config-missing": Case(f"{PP} --config @nope.json", "nope.json"),
@@ -655,6 +676,18 @@ def test_an_unusable_mujoco_gl_stops_only_the_animation_before_the_episode(tmp_p
         "error: cannot animate: MUJOCO_GL=nonsense is not a rendering backend MuJoCo knows here (egl, "
         "osmesa, glx, glfw, or disable); unset it or set MUJOCO_GL=egl"]
     assert run.stdout == "" and not gif.exists()  # refused before the episode ran
+
+
+def test_plan_robot_without_the_robot_extra_is_one_line_with_the_install_hint(ws, monkeypatch):
+    import tognet.sim.robot.arms as arms
+
+    find_spec = importlib.util.find_spec
+    monkeypatch.setattr(arms.importlib.util, "find_spec",
+                        lambda name, *rest: None if name in ("robosuite", "mink") else find_spec(name, *rest))
+    result = run_cli(Case(f"{PP} --robot panda").argv(ws, ws / "unused"))
+    assert not problems(result), result
+    assert "the robot arms need the optional extra: pip install 'tognet[robot]'" in result.stderr
+    assert not result.stdout.strip()
 
 
 def test_synthetic_data_is_written_a_chunk_at_a_time_in_flat_memory(tmp_path, monkeypatch):

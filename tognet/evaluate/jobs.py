@@ -104,6 +104,7 @@ def run_eval_job(job: EvalJob) -> JobOutput:
 
 def _run_eval_job(job: EvalJob) -> JobOutput:
     from tognet.planning import PlanningError, make_planner
+    from tognet.planning.reach import OutOfReach
     from tognet.sim import Simulator
 
     t_start = time.perf_counter()
@@ -130,14 +131,17 @@ def _run_eval_job(job: EvalJob) -> JobOutput:
             rng = np.random.default_rng(job.seed(s, 2))  # the same state for every method
             try:
                 plan = planner(obs, rng)
-            except PlanningError:
+            except PlanningError as exc:  # no candidate; with an arm, none within its reach
+                failure = UNREACHABLE if isinstance(exc, OutOfReach) else NO_GRASP
                 records.append({**base, "grasp": None, "action": None, "valid": True, "grasp_success": False,
-                                "task_success": False, "failure": NO_GRASP, "timing": {}, "scores": {}})
+                                "task_success": False, "failure": failure, "timing": {}, "scores": {}})
                 continue
             rec = {**base, "grasp": [float(v) for v in plan.grasp], "action": [float(v) for v in plan.action],
                    "timing": plan.timing, "scores": plan.scores,
                    "search_trials": plan.info.get("search_trials"), "pose": _pose(sim),
                    "state_sha": state_digest(sim)}
+            if "reach" in plan.info:  # with an arm: how far down the method's ranking its plan is
+                rec["reach"] = {k: plan.info["reach"].get(k) for k in ("rank", "dropped", "checked")}
             t0 = time.perf_counter()
             try:
                 result = sim.execute(plan.grasp_pose, plan.action, seed=job.config.trial_seed)

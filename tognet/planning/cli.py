@@ -11,6 +11,8 @@ from tognet.cliutil import out_file, user_errors
 from tognet.tasks import TASK_NAMES, reference_points
 
 DEPTH_SUFFIXES = (".png", ".npy", ".npz")
+#: The arms ``--robot`` names (tognet.sim.robot.arms.ARM_NAMES, without importing MuJoCo for --help).
+ROBOTS = ("sawyer", "panda")
 
 
 def parse_object(text: str | None) -> int | tuple[float, float] | None:
@@ -65,10 +67,20 @@ def plan_cmd(
         "image's centre that looks like something to pick up."),
     seed: int = typer.Option(0, "--seed", min=0, help="Seed of the sampler and the search."),
     config: Path | None = typer.Option(None, "--config", help="UserPlanConfig JSON (defaults otherwise)."),
+    robot: str | None = typer.Option(
+        None, "--robot", metavar="|".join(ROBOTS), help="Plan for this arm beside the table, carrying the "
+        "simulator's hand (pip install 'tognet\\[robot]'): only grasps and motions it reaches (the task's "
+        "motion too when --reference is given), and the joint trajectory in --out's JSON (robot)."),
+    base_pose: Path | None = typer.Option(
+        None, "--base-pose", help="The --robot arm's base: JSON {\"position\": \\[x, y, z], \"yaw\": rad} "
+        "(m, in the frame of --reference: the world frame of --camera-pose, else the plan's table frame; "
+        "z = 0 the table top). Default: the arm's own, 0.6 m (sawyer) or 0.5 m (panda) from the origin at "
+        "-y, facing +y."),
 ) -> None:
     """Plan a task-oriented grasp and the task's motion on one depth image from your own camera.
 
-    Prints the grasp (table, camera and world frames), Q_G, Q_T|G, Q_T, the action, alternatives, timing.
+    Prints the grasp (table, camera and world frames), Q_G, Q_T|G, Q_T, the action, alternatives, timing;
+    with --robot, the arm's trajectory too.
     """
     from tognet.planning.camera import load_camera_pose, load_intrinsics
     from tognet.planning.user import UserPlanConfig, UserPlanner
@@ -76,6 +88,10 @@ def plan_cmd(
     choice = parse_object(object_)
     if task not in TASK_NAMES:
         raise ValueError(f"unknown --task '{task}'; known: {', '.join(TASK_NAMES)}")
+    if robot is not None and robot not in ROBOTS:
+        raise ValueError(f"unknown --robot '{robot}'; known: {', '.join(ROBOTS)}")
+    if base_pose is not None and robot is None:
+        raise ValueError("--base-pose places the --robot arm: name the arm with --robot sawyer|panda")
     _check_output(out, ".json", "--out")
     _check_output(overlay, ".png", "--overlay")
     if not depth.is_file():
@@ -85,12 +101,20 @@ def plan_cmd(
         raise ValueError(f"--depth {depth}: unsupported file type '{depth.suffix}' (use .png, .npy or .npz)")
     if reference is not None and not all(math.isfinite(v) for v in reference):
         raise ValueError(f"--reference takes 3 finite numbers, got {' '.join(map(str, reference))}")
+    arm = None
+    if robot is not None:
+        from tognet.planning.reach import load_base_pose, require_robot_extra
+        from tognet.sim.config import RobotConfig
+
+        position, yaw = load_base_pose(base_pose) if base_pose is not None else (None, None)
+        require_robot_extra()
+        arm = RobotConfig(name=robot, base_position=position, base_yaw=yaw)  # type: ignore[arg-type]
     cfg = UserPlanConfig.load(config) if config is not None else UserPlanConfig()
     cfg = cfg.replace(top=top, seed=seed)
     k = load_intrinsics(intrinsics)
     pose = load_camera_pose(camera_pose) if camera_pose is not None else None
     image, k, pose = UserPlanner.read_inputs(depth, k, pose)  # every input checked before the model loads
-    planner = UserPlanner(task, checkpoint, cfg)
+    planner = UserPlanner(task, checkpoint, cfg, robot=arm)
     plan = planner.plan(image, k, pose, reference=reference, object=choice)
     png = None
     if overlay is not None:
@@ -126,6 +150,13 @@ def plan_cmd(
         typer.echo(f"  alternative {i}: table {_vec(alt.table[:3])} m, phi {alt.table[3]:.3f}; "
                    f"Q_T {alt.q_t:.3f} (Q_T|G {alt.q_t_given_g:.3f}, Q_G {alt.q_g:.3f}); "
                    f"action {_vec(alt.action, 3)}")
+    if plan.robot is not None:
+        r, c = plan.robot, plan.robot.choice
+        steps = ", ".join(w["step"].removeprefix("the ") for w in c.waypoints())
+        typer.echo(f"arm: {r.arm}, base at {_vec(r.base_position, 3)} m, yaw {r.base_yaw:+.3f} rad "
+                   f"({r.frame} frame): {len(c.reach.path.q)} joint waypoints ({steps}), at least "
+                   f"{c.reach.path.min_duration:.2f} s at its joints' speed limits"
+                   + ("; the joint angles in --out's JSON (robot)" if out is None else ""))
     for text in plan.warnings:
         typer.secho(f"warning: {text}", fg=typer.colors.YELLOW, err=True)
     written = []

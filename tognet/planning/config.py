@@ -33,6 +33,33 @@ class OracleConfig(Config):
 
 
 @dataclass(frozen=True)
+class ReachConfig(Config):
+    """Planning for an arm (:mod:`tognet.planning.reach`): which of a planner's grasps an arm beside the
+    table can carry out. Used only when an arm carries the hand (``SimConfig.robot`` not floating, or
+    ``tognet plan --robot``): the floating gripper's plans never see it."""
+
+    enabled: bool = doc(
+        True,
+        "Plan only what the simulator's arm reaches when it has one (false: plan as for the floating "
+        "gripper, and let the trial find out).",
+    )
+    tries: int = doc(
+        6,
+        "Grasps checked by inverse kinematics per plan at most (the planner's own choice, then its next "
+        "best ones); then the plan is out of reach. A check costs about 10 ms where the arm reaches the "
+        "whole trial and up to 0.2 s where it does not.",
+        ge=1,
+    )
+    spacing: float = doc(
+        0.02,
+        "A grasp within this distance (m) and ``angle_spacing`` of one whose approach, grasp or lift was out "
+        "of reach is passed over without a check of its own.",
+        ge=0,
+    )
+    angle_spacing: float = doc(0.3, "See ``spacing`` (rad).", ge=0)
+
+
+@dataclass(frozen=True)
 class PlanConfig(Config):
     """How the planners sample, rank and search grasps (the collection's settings by default, so that the
     models are queried on the inputs they were trained on)."""
@@ -51,3 +78,6 @@ class PlanConfig(Config):
         "fields are unused (a planner's action is the policy's mean: no noise).",
     )
     oracle: OracleConfig = doc(factory=OracleConfig, text="The Oracle's simulator search.")
+    reach: ReachConfig = doc(
+        factory=ReachConfig, text="With an arm carrying the hand: what every planner checks it reaches."
+    )

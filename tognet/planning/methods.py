@@ -47,6 +47,7 @@ from tognet.planning.config import PlanConfig
 from tognet.planning.method_names import DIAGNOSTIC_NAMES, METHOD_NAMES
 from tognet.planning.plan import Planner
 from tognet.planning.planners import OracleActions, OracleGrasp, OraclePlanner, PolicyPlanner
+from tognet.planning.reach import ArmReach, reach_of
 from tognet.policies.action import BaselineRandomActions, PolicyActions
 from tognet.policies.action_search import ActionSearchActions, ActionSearchGrasps
 from tognet.policies.grasp import CEMGrasp, NMSGrasps
@@ -70,6 +71,7 @@ class MethodInputs:
     task_model: Any = None
     sim: Any = None
     search_model: Any = None
+    reach: ArmReach | None = None
 
 
 @dataclass(frozen=True)
@@ -128,26 +130,38 @@ def _search_action(i: MethodInputs) -> ActionPolicy:
     return ActionSearchActions(i.search_model, i.config.policy.action_search)
 
 
-_ORACLES: weakref.WeakKeyDictionary[Any, dict[str, OraclePlanner]] = weakref.WeakKeyDictionary()
+_ORACLES: weakref.WeakKeyDictionary[Any, dict[tuple[str, int], OraclePlanner]] = weakref.WeakKeyDictionary()
+_REACHES: weakref.WeakKeyDictionary[Any, dict[str, ArmReach | None]] = weakref.WeakKeyDictionary()
 
 
-def oracle_for(sim: Any, config: PlanConfig) -> OraclePlanner:
-    """The Oracle's planner for ``sim`` and ``config``: one per simulator, shared by the Oracle's row and
-    the diagnostic that takes its grasp (which then reuses the Oracle's last plan instead of searching
-    again)."""
+def oracle_for(sim: Any, config: PlanConfig, reach: ArmReach | None = None) -> OraclePlanner:
+    """The Oracle's planner for ``sim`` and ``config`` (and the arm's reach it plans within): one per
+    simulator, shared by the Oracle's row and the diagnostic that takes its grasp (which then reuses the
+    Oracle's last plan instead of searching again)."""
     per_sim = _ORACLES.setdefault(sim, {})
-    key = repr(config)  # frozen dataclasses all the way down: equal settings, equal text
+    key = (repr(config), id(reach))  # frozen dataclasses all the way down: equal settings, equal text
     if key not in per_sim:
-        per_sim[key] = OraclePlanner(sim, config)
+        per_sim[key] = OraclePlanner(sim, config, reach)
+    return per_sim[key]
+
+
+def reach_for(sim: Any, config: PlanConfig) -> ArmReach | None:
+    """The reach filter of the simulator's arm (:mod:`tognet.planning.reach`), one per simulator and
+    settings, shared by every method planning on it; None for the floating gripper or with
+    ``config.reach.enabled`` off."""
+    per_sim = _REACHES.setdefault(sim, {})
+    key = repr(config.reach)
+    if key not in per_sim:
+        per_sim[key] = reach_of(sim.config, sim.task, config.reach)
     return per_sim[key]
 
 
 def _oracle(i: MethodInputs) -> Planner:
-    return oracle_for(i.sim, i.config)
+    return oracle_for(i.sim, i.config, i.reach)
 
 
 def _oracle_grasp(i: MethodInputs) -> GraspPolicy:
-    return OracleGrasp(oracle_for(i.sim, i.config))
+    return OracleGrasp(oracle_for(i.sim, i.config, i.reach))
 
 
 def _oracle_motion(i: MethodInputs) -> ActionPolicy:
@@ -201,7 +215,8 @@ def check_methods(methods: list[str] | tuple[str, ...] | str) -> tuple[str, ...]
 
 
 def make_planner(method: str | Method, task: Task, *, grasp_model: Any = None, task_model: Any = None,
-                 config: PlanConfig | None = None, sim: Any = None, search_model: Any = None) -> Planner:
+                 config: PlanConfig | None = None, sim: Any = None, search_model: Any = None,
+                 reach: ArmReach | None = None) -> Planner:
     """The planner of ``method`` (a name of :data:`METHODS`, or a :class:`Method`) for ``task``.
 
     ``grasp_model`` / ``task_model`` / ``search_model``: predictors
@@ -209,11 +224,17 @@ def make_planner(method: str | Method, task: Task, *, grasp_model: Any = None, t
     action-conditioned model, as the method needs (:data:`NEEDS`); ``sim``: the simulator, for the
     methods that use it (the Oracle, the diagnostics). A task model given to a policy method also rates
     its chosen grasp (``Plan.scores``). The crops are ``config.crop`` or else the models' own (ValueError
-    if they disagree)."""
+    if they disagree).
+
+    ``reach``: plan only what this arm reaches (:class:`tognet.planning.reach.ArmReach`, the same filter
+    for every method); by default the simulator's arm when ``sim`` has one (``SimConfig.robot`` not
+    floating) and ``config.reach.enabled`` is on. The floating gripper's plans never pass through it."""
     row = method if isinstance(method, Method) else get_method(method)
     config = config or PlanConfig()
     if row.uses_sim and sim is None:
         raise ValueError(f"{row.name} needs the simulator (sim=...)")
+    if reach is None and sim is not None:
+        reach = reach_for(sim, config)
     models = {"grasp": grasp_model, "task": task_model, "search": search_model}
     what = {"grasp": "the grasp-only model", "task": f"the {task.name} model",
             "search": f"the {task.name} action-search model (a model trained with task_head='action')"}
@@ -226,7 +247,7 @@ def make_planner(method: str | Method, task: Task, *, grasp_model: Any = None, t
                              "the action")
         if getattr(search_model, "task", task.name) not in (None, task.name):
             raise ValueError(f"the action-search model was trained for {search_model.task}, not {task.name}")
-    inputs = MethodInputs(task, config, grasp_model, task_model, sim, search_model)
+    inputs = MethodInputs(task, config, grasp_model, task_model, sim, search_model, reach)
     if row.planner is not None:  # a planner of its own (the Oracle's search: no model, no crops)
         return row.planner(inputs)
     assert row.grasp is not None and row.action is not None
@@ -238,4 +259,4 @@ def make_planner(method: str | Method, task: Task, *, grasp_model: Any = None, t
     except ValueError as exc:
         raise ValueError(f"{row.name}'s model: {exc}") from None
     return PolicyPlanner(row.name, task, row.grasp(inputs), row.action(inputs), config, crop,
-                         score_model=task_model)
+                         score_model=task_model, reach=reach)

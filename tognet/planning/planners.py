@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import copy
 import time
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -20,14 +21,17 @@ from tognet.data.format import ACTION_SOURCES, GRASP_SOURCES
 from tognet.geometry import Grasp
 from tognet.planning.config import PlanConfig
 from tognet.planning.plan import Plan, PlanningError
+from tognet.planning.reach import ArmReach, Option, Passed, ranked_grasps
 from tognet.policies.grasp import NMSGrasps
 from tognet.policies.view import ActionPick, ActionPolicy, GraspPick, GraspPolicy, SceneView
 from tognet.tasks import TASK_NAMES, Task
 
 
 def _scene_view(observation: Any, task: Task | None, config: PlanConfig, crop: Any,
-                rng: np.random.Generator, timing: dict[str, float]) -> SceneView:
-    """The policies' view of an observation: its depth image prepared and antipodal candidates sampled."""
+                rng: np.random.Generator, timing: dict[str, float], reach: ArmReach | None = None
+                ) -> SceneView:
+    """The policies' view of an observation: its depth image prepared and antipodal candidates sampled;
+    with an arm, those beyond its reach dropped (``view.cache["reach_dropped"]``, timed as ``reach``)."""
     from tognet.grasping.antipodal import sample_antipodal
     from tognet.grasping.depth import prepare_depth
 
@@ -38,7 +42,12 @@ def _scene_view(observation: Any, task: Task | None, config: PlanConfig, crop: A
     timing["depth"], timing["candidates"] = t1 - t0, time.perf_counter() - t1
     if len(cands) == 0:
         raise PlanningError("no antipodal grasp candidate on the depth image")
-    return SceneView(scene, cands, task, crop)
+    if reach is None:
+        return SceneView(scene, cands, task, crop)
+    t2 = time.perf_counter()
+    cands, dropped = reach.filter(cands)
+    timing["reach"] = time.perf_counter() - t2
+    return SceneView(scene, cands, task, crop, cache={"reach_dropped": dropped})
 
 
 class PolicyPlanner:
@@ -46,10 +55,16 @@ class PolicyPlanner:
 
     ``score_model``: a model whose prediction at the chosen grasp is reported in ``Plan.scores``
     (``q_g``, ``q_t_given_g``, ``q_t``: how the task model rates every method's grasp); not counted in
-    ``timing["total"]``, which is the method's own planning time."""
+    ``timing["total"]``, which is the method's own planning time.
+
+    ``reach``: with an arm (:class:`tognet.planning.reach.ArmReach`), the candidates beyond it are dropped
+    before the policies see them, and the chosen grasp and action are checked through the whole trial,
+    the grasp policy's next grasps taken in turn where the arm cannot (``Plan.info["reach"]``; timed as
+    ``reach``)."""
 
     def __init__(self, name: str, task: Task, grasp_policy: GraspPolicy, action_policy: ActionPolicy,
-                 config: PlanConfig, crop: Any, score_model: Any = None) -> None:
+                 config: PlanConfig, crop: Any, score_model: Any = None, reach: ArmReach | None = None
+                 ) -> None:
         self.name = name
         self.task = task
         self.grasp_policy = grasp_policy
@@ -57,13 +72,15 @@ class PolicyPlanner:
         self.config = config
         self.crop = crop
         self.score_model = score_model
+        self.reach = reach
 
     def plan(self, observation: Any, rng: np.random.Generator) -> Plan:
-        """One grasp and action for ``observation`` (PlanningError when there is no candidate)."""
+        """One grasp and action for ``observation`` (PlanningError when there is no candidate; its
+        OutOfReach when none is within the arm's reach)."""
         timing: dict[str, float] = {}
         t0 = time.perf_counter()
         rng_start = copy.deepcopy(rng)
-        view = _scene_view(observation, self.task, self.config, self.crop, rng, timing)
+        view = _scene_view(observation, self.task, self.config, self.crop, rng, timing, self.reach)
         view.cache.update(observation=observation, rng_start=rng_start)  # for the diagnostic OracleGrasp
         t1 = time.perf_counter()
         pick = self.grasp_policy(view, 1, rng)
@@ -71,15 +88,41 @@ class PolicyPlanner:
         acts = self.action_policy(view, pick.grasps, rng)
         t3 = time.perf_counter()
         timing.update(grasp=t2 - t1, action=t3 - t2, total=t3 - t0)
-        scores = {"choice": float(pick.score[0])}
+        grasp, action = pick.grasps[0].astype(np.float64), acts.actions[0].astype(np.float64)
+        choice, sources = float(pick.score[0]), (int(pick.source[0]), int(acts.source[0]))
+        info: dict[str, Any] = {}
+        if self.reach is not None:
+            first = (choice, sources)
+            options = self._options(view, grasp, lambda: (action, first), rng)
+            chosen = self.reach.choose(options, observation.reference, view.cache["reach_dropped"])[0]
+            grasp, action, (choice, sources) = chosen.grasp, chosen.action, chosen.extra
+            info["reach"] = chosen.info()
+            timing["reach"] += chosen.seconds
+            timing["total"] = time.perf_counter() - t0
+        scores = {"choice": choice}
         if self.score_model is not None:  # diagnostics, not part of the method (nor of its time)
-            crops, z = view.crops(pick.grasps)
+            crops, z = view.crops(grasp[None])
             pred = self.score_model.predict(crops, z)
             scores.update(q_g=float(pred.q_g[0]), q_t_given_g=float(pred.q_t_given_g[0]),
                           q_t=float(pred.q_t[0]))
-        return Plan(self.name, pick.grasps[0].astype(np.float64), acts.actions[0].astype(np.float64), scores,
-                    timing, {"candidates": len(view.candidates), "grasp_source": int(pick.source[0]),
-                             "action_source": int(acts.source[0])})
+        return Plan(self.name, grasp, action, scores, timing,
+                    {"candidates": len(view.candidates), "grasp_source": sources[0],
+                     "action_source": sources[1], **info})
+
+    def _options(self, view: SceneView, grasp: NDArray[np.float64], first: Any, rng: np.random.Generator
+                 ) -> Iterator[Option]:
+        """The policy's choice, then (asked for only when it is out of reach) its next grasps, each with
+        the action policy's action for it."""
+        yield Option(grasp, first)
+        assert self.reach is not None
+        ranked = ranked_grasps(self.grasp_policy, view, rng, self.reach.config.tries + 1)
+        for g, score, source in zip(ranked.grasps, ranked.score, ranked.source, strict=True):
+            def action(g: NDArray[np.float64] = g, score: float = float(score), source: int = int(source)
+                       ) -> tuple[NDArray[np.float64], Any]:
+                acts = self.action_policy(view, g[None].astype(np.float64), rng)
+                return acts.actions[0].astype(np.float64), (score, (source, int(acts.source[0])))
+
+            yield Option(g.astype(np.float64), action)
 
     __call__ = plan
 
@@ -169,11 +212,12 @@ class OraclePlanner:
 
     name = "Oracle"
 
-    def __init__(self, sim: Any, config: PlanConfig | None = None) -> None:
+    def __init__(self, sim: Any, config: PlanConfig | None = None, reach: ArmReach | None = None) -> None:
         if sim.task is None:
             raise ValueError(f"the Oracle plans for a task ({', '.join(TASK_NAMES)}), not for grasping only")
         self.sim = sim
         self.config = config or PlanConfig()
+        self.reach = reach
         self._last: tuple[tuple[str, int, bytes], Plan] | None = None
         self._rng_after: dict[str, Any] = {}
 
@@ -190,29 +234,50 @@ class OraclePlanner:
         oc = self.config.oracle
         timing: dict[str, float] = {}
         t0 = time.perf_counter()
-        view = _scene_view(observation, self.sim.task, self.config, None, rng, timing)
+        view = _scene_view(observation, self.sim.task, self.config, None, rng, timing, self.reach)
         modes, _ = NMSGrasps(self.config.policy).modes(view)
         best: tuple[float, int, NDArray[np.float64], NDArray[np.float64]] | None = None
         fallback = (modes[0].copy(), np.zeros(4))
         done = False
-        for g in modes[: oc.grasps]:
+        tried = 0
+        passed: list[Passed] = []  # with an arm: the grasps out of its reach, never tried in the simulator
+        reached: list[NDArray[np.float64]] = []
+        for g in modes:
+            if tried >= oc.grasps:
+                break
+            counted = False
             for flip in (0.0, np.pi):
                 if done or search.trials >= oc.max_trials:
                     break
                 grasp_arr = g.copy()
                 grasp_arr[3] = np.mod(grasp_arr[3] + flip, 2 * np.pi)
+                if self.reach is not None:
+                    own = self.reach.own_steps(grasp_arr)
+                    if own.stuck is not None:
+                        passed.append(Passed(grasp_arr, own.stuck.what, own.stuck.reason))
+                        continue
+                    reached.append(grasp_arr)
+                counted = True
                 found = search.best_action(grasp_arr)
                 if found is not None and (best is None or (found[0], found[1]) > (best[0], best[1])):
                     best = (found[0], found[1], grasp_arr.copy(), found[2])
                 done = found is not None and found[1] == oc.seeds
+            tried += int(counted or self.reach is None)
+        info: dict[str, Any] = {}
+        if self.reach is not None:
+            if not reached:
+                raise self.reach.out_of_reach(view.cache["reach_dropped"], passed)
+            fallback = (reached[0].copy(), np.zeros(4))
+            info["reach"] = self.reach.search_info(view.cache["reach_dropped"], passed, len(reached))
         grasp_arr, action = (best[2], best[3]) if best is not None else fallback
-        timing["search"] = time.perf_counter() - t0 - timing["depth"] - timing["candidates"]
+        timing["search"] = (time.perf_counter() - t0 - timing["depth"] - timing["candidates"]
+                            - timing.get("reach", 0.0))
         timing["total"] = time.perf_counter() - t0
         scores = {"choice": best[0] if best is not None else 0.0,
                   "search_successes": float(best[1]) if best is not None else 0.0}
         plan = Plan(self.name, grasp_arr, action, scores, timing,
                     {"search_trials": search.trials, "candidates": len(view.candidates),
-                     "found": best is not None})
+                     "found": best is not None, **info})
         self._last, self._rng_after = (key, plan), rng.bit_generator.state
         return plan
 

@@ -38,7 +38,8 @@ from __future__ import annotations
 import json
 import math
 import time
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -70,6 +71,8 @@ from tognet.planning.camera import (
     segment_objects,
     table_noise,
 )
+from tognet.planning.config import ReachConfig
+from tognet.planning.reach import ArmReach, Dropped, Option, ReachChoice
 from tognet.policies.action import PolicyActions
 from tognet.policies.config import PolicyConfig
 from tognet.policies.grasp import CEMGrasp
@@ -117,6 +120,11 @@ class UserPlanConfig(Config):
         "grasp centre, as the simulator's planners use (only right for a camera like the simulator's).",
     )
     seed: int = doc(0, "Seed of the sampler and the search: a plan is reproducible from its inputs and this.")
+    reach: ReachConfig = doc(
+        factory=ReachConfig,
+        text="With an arm (``robot``, ``tognet plan --robot``): how many grasps are checked against its "
+        "reach (``enabled`` is not read: naming the arm is the switch).",
+    )
 
     def __post_init__(self) -> None:
         if self.top < 0:
@@ -178,6 +186,49 @@ class PlannedGrasp:
 
 
 @dataclass(frozen=True)
+class ArmPlan:
+    """The arm's side of a plan (``robot=``, ``tognet plan --robot``): the arm, its base (in ``frame``: the
+    camera pose's world frame, else the plan's table frame; the frame of the reference point too), and the
+    chosen grasp's trial as joint waypoints (:meth:`tognet.planning.reach.ReachChoice.waypoints`: per step,
+    the hand's pose in ``frame``, the joint angles and the earliest time at the joints' speed limits)."""
+
+    arm: str
+    frame: str
+    base_position: tuple[float, float, float]
+    base_yaw: float
+    joint_names: list[str]
+    choice: ReachChoice
+
+    @property
+    def waypoints(self) -> list[dict[str, Any]]:
+        return self.choice.waypoints()
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready description (the plan's ``robot`` section)."""
+        c = self.choice
+        names = ("x", "y", "z", "phi")
+        steps = [{"step": w["step"], "pose": dict(zip(names, _rounded(np.array(w["pose"]), 5), strict=True)),
+                  "q": _rounded(np.array(w["q"]), 5), "time_s": _rounded(w["time"])} for w in c.waypoints()]
+        return {
+            "arm": self.arm,
+            "frame": self.frame,
+            "base": {"position": _rounded(np.array(self.base_position)), "yaw": _rounded(self.base_yaw)},
+            "joint_names": list(self.joint_names),
+            "trajectory": steps,
+            "duration_s": _rounded(c.reach.path.min_duration),
+            "times": "the earliest time each step can be reached, from the first, with every joint at most "
+                     "at its speed limit (joint-space moves between the waypoints)",
+            "with_task": c.with_task,
+            "wrist_turn": _rounded(c.reach.turn),
+            "candidates": c.dropped.candidates,
+            "beyond_reach": c.dropped.count,
+            "checked": c.checked,
+            "passed_over": [{"grasp": _rounded(p.grasp), "step": p.what, "reason": p.reason}
+                            for p in c.passed],
+        }
+
+
+@dataclass(frozen=True)
 class UserPlan:
     """A plan on a user's depth image: the chosen grasp and action, alternatives, frames and diagnostics.
 
@@ -202,6 +253,7 @@ class UserPlan:
     checkpoint: str | None = None
     seed: int = 0
     intrinsics: CameraIntrinsics | None = None
+    robot: ArmPlan | None = None
 
     @property
     def action(self) -> NDArray[np.float64]:
@@ -244,6 +296,7 @@ class UserPlan:
             "candidates": self.candidates,
             "evaluated": self.evaluated,
             "timing_ms": {k: round(1000 * v, 2) for k, v in self.timing.items()},
+            **({"robot": self.robot.to_dict()} if self.robot is not None else {}),
         }
 
     def save(self, path: str | Path) -> Path:
@@ -345,6 +398,24 @@ def _grasp_frames(table_grasps: NDArray[np.float64], camera_from_table: NDArray[
     return camera_from_table[None] @ gripper
 
 
+def _frame_map(table_from_camera: NDArray[np.float64], pose: NDArray[np.float64] | None
+               ) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
+    """Table-frame grasps (N, 4) -> the frame the reference point and the arm's base are given in: the
+    camera pose's world frame, else the table frame itself."""
+    if pose is None:
+        return lambda grasps: np.asarray(grasps, dtype=np.float64).reshape(-1, 4).copy()
+    world_from_table = pose @ np.linalg.inv(table_from_camera)
+
+    def to_world(grasps: NDArray[np.float64]) -> NDArray[np.float64]:
+        g = np.asarray(grasps, dtype=np.float64).reshape(-1, 4)
+        p = g[:, :3] @ world_from_table[:3, :3].T + world_from_table[:3, 3]
+        jaw = np.stack([np.cos(g[:, 3]), np.sin(g[:, 3]), np.zeros(len(g))], axis=1)
+        axis = jaw @ world_from_table[:3, :3].T
+        return np.column_stack([p, np.mod(np.arctan2(axis[:, 1], axis[:, 0]), 2 * np.pi)])
+
+    return to_world
+
+
 def _scene_of(target: TableObject, found: list[TableObject], camera: Camera, plane: TablePlane,
               valid: NDArray[np.float32], filled: NDArray[np.float32], height: NDArray[np.float32],
               holes: NDArray[np.bool_], margin: int) -> DepthScene:
@@ -390,21 +461,36 @@ class _Search:
     actions: NDArray[np.float64]
     best_score: float
     seconds_grasp: float
+    view: Any = None
 
 
 class UserPlanner:
     """A loaded TOG-Net for one task, planning on users' depth images (see the module docstring).
 
     ``checkpoint``: a path (default: the shipped model of ``task``) or a loaded predictor. ``num_threads``:
-    torch's CPU threads (process-wide), set on loading; 1 by default (see ``TOGNetPredictor.load``)."""
+    torch's CPU threads (process-wide), set on loading; 1 by default (see ``TOGNetPredictor.load``).
+
+    ``robot``: plan for an arm beside the table (an arm's name, its default base, or a
+    ``tognet.sim.config.RobotConfig`` with its base in the frame of the reference point: the camera pose's
+    world frame, else the plan's table frame), carrying the simulator's hand: only grasps and motions it
+    reaches (:mod:`tognet.planning.reach`; the task's steps are checked when a reference point is given),
+    and the joint trajectory of the chosen one (``UserPlan.robot``). RobotExtraMissing without the robot
+    extra."""
 
     def __init__(self, task: str, checkpoint: Any = None, config: UserPlanConfig | None = None,
-                 num_threads: int | None = 1) -> None:
+                 num_threads: int | None = 1, robot: Any = None) -> None:
         if task not in TASK_NAMES:
             raise PlanInputError(f"unknown task '{task}'; known: {', '.join(TASK_NAMES)}")
         self.task_name = task
         self.task: Task = get_task(task)
         self.config = config or UserPlanConfig()
+        self.reach: ArmReach | None = None
+        if robot is not None:  # before the model: a missing extra is said at once
+            from tognet.sim.config import RobotConfig, SimConfig
+
+            robot = RobotConfig(name=robot) if isinstance(robot, str) else robot
+            if robot.name != "floating":
+                self.reach = ArmReach(SimConfig().replace(robot=robot), self.task, self.config.reach)
         self.predictor, self.checkpoint = _load_predictor(task, checkpoint, num_threads)
         try:
             self.crop: CropConfig = resolve_crop([self.predictor])
@@ -476,6 +562,12 @@ class UserPlanner:
         # it (a block too wide to hold beside a smaller tool).
         queue = fit if object is None else [target]
         target, scene, cands, skipped = self._candidates(queue, found, view, rng)
+        to_frame = _frame_map(view.table_from_camera, pose)
+        dropped = None
+        if self.reach is not None:  # candidates beyond the arm's reach are never scored
+            keep, dropped = self.reach.keep(to_frame(cands.grasps))
+            if not keep.all():
+                cands = cands.subset(np.flatnonzero(keep))
         if skipped:
             why = (choice_reason(fit, fit.index(target))
                    + f" (none on {', '.join(f'#{o.index}' for o in skipped)})")
@@ -491,19 +583,29 @@ class UserPlanner:
         t4 = time.perf_counter()
         search = self._search(scene, cands, rng)
         t6 = time.perf_counter()
+        arm = None
+        if self.reach is not None:
+            assert dropped is not None
+            search, arm = self._within_reach(search, to_frame, reference, dropped, pose is not None, rng)
+            for line in arm.choice.summary(), *self._reach_notes(search, arm, reference):
+                if line:
+                    warnings.append(line)
+        t7 = time.perf_counter()
         if search.best_score < cfg.low_score:
             warnings.append(f"no good grasp for this task on this object: the best Q_T is "
                             f"{search.best_score:.2f} (below {cfg.low_score:g})")
         out = self._planned(search, view, pose, reference)
         timing = dict(read=t1 - t0, table=t2 - t1, objects=t3 - t2, candidates=t4 - t3,
-                      grasp=search.seconds_grasp, action=t6 - t4 - search.seconds_grasp,
-                      total=time.perf_counter() - t0)
+                      grasp=search.seconds_grasp, action=t6 - t4 - search.seconds_grasp)
+        if arm is not None:
+            timing["reach"] = t7 - t6
+        timing["total"] = time.perf_counter() - t0
         return UserPlan(
             task=self.task_name, grasp=out[0], alternatives=out[1:], table_from_camera=view.table_from_camera,
             world_from_camera=pose, plane=view.plane, objects=[o.describe() for o in found],
             object={**target.describe(), "why": why}, candidates=len(cands),
             evaluated=len(search.grasps), timing=timing, warnings=warnings, checkpoint=self.checkpoint,
-            seed=cfg.seed if seed is None else seed, intrinsics=k,
+            seed=cfg.seed if seed is None else seed, intrinsics=k, robot=arm,
         )
 
     def _table_view(self, valid: NDArray[np.float32], k: CameraIntrinsics,
@@ -580,7 +682,46 @@ class UserPlanner:
         q_t = np.concatenate([p.q_t for p in preds]).astype(np.float64)
         chosen = _distinct(grasps, q_t, cfg.top + 1, cfg.alternatives)  # [0]: CEM's best, its top score
         actions = PolicyActions(self.predictor)(view, grasps[chosen], rng).actions
-        return _Search(grasps, q_g, q_tg, q_t, chosen, actions, float(best_score), seconds_grasp)
+        return _Search(grasps, q_g, q_tg, q_t, chosen, actions, float(best_score), seconds_grasp, view)
+
+    def _within_reach(self, search: _Search, to_frame: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+                      reference: ArrayLike | None, dropped: Dropped, world: bool, rng: np.random.Generator
+                      ) -> tuple[_Search, ArmPlan]:
+        """The search's distinct best grasps (as :meth:`_search` ranks them) that the arm reaches, each with
+        its action, and the arm's side of the plan; OutOfReach when none is."""
+        assert self.reach is not None
+        cfg = self.config
+        order = _distinct(search.grasps, search.q_t, cfg.top + 1 + cfg.reach.tries, cfg.alternatives)
+        first = len(search.chosen)  # the same greedy picks: order[:first] is search.chosen
+        more: list[NDArray[np.float64]] = []
+
+        def action(j: int) -> tuple[NDArray[np.float64], int]:
+            if j < first:
+                return search.actions[j], j
+            if not more:  # the next ones' actions, in one batch, only once the first are out of reach
+                rest = search.grasps[order[first:]]
+                more.append(PolicyActions(self.predictor)(search.view, rest, rng).actions)
+            return more[0][j - first], j
+
+        ref = None if reference is None else np.asarray(reference, dtype=np.float64).reshape(3)
+        grasps = to_frame(search.grasps[order])
+        options = (Option(grasps[j], lambda j=j: action(j)) for j in range(len(order)))
+        found = self.reach.choose(options, ref, dropped, want=cfg.top + 1)
+        picked = np.array([c.extra for c in found], dtype=np.intp)
+        reached = replace(search, chosen=order[picked], actions=np.array([c.action for c in found]))
+        r = self.reach
+        arm = ArmPlan(r.name, "world" if world else "table", r.base_position, r.base_yaw, r.joint_names,
+                      found[0])
+        return reached, arm
+
+    def _reach_notes(self, search: _Search, arm: ArmPlan, reference: ArrayLike | None) -> list[str]:
+        notes = []
+        if not arm.choice.with_task:
+            notes.append(f"without a reference point (--reference) the {self.task_name} task's motion is not "
+                         f"checked against the {arm.arm}'s reach: its trajectory ends at the lift")
+        if len(search.chosen) < self.config.top + 1 and len(search.chosen) > 0:
+            notes.append(f"{len(search.chosen) - 1} alternative(s) within the {arm.arm}'s reach")
+        return notes
 
     def _planned(self, search: _Search, view: _TableView, pose: NDArray[np.float64] | None,
                  reference: ArrayLike | None) -> list[PlannedGrasp]:

@@ -198,6 +198,16 @@ class ActionSearchGrasps:
                                               self.config, rng))
         return view.cache[key]
 
+    def ranked(self, view: SceneView, rng: np.random.Generator) -> GraspPick:
+        """The grasps the search refined (best Q_T first), then every other candidate by its rating: what
+        an arm's reach check falls back on (:mod:`tognet.planning.reach`)."""
+        grasps, res = self.result(view, rng)
+        rest = np.argsort(-res.rating, kind="stable")
+        rest = rest[~np.isin(rest, res.index)]
+        order = np.concatenate([res.index, rest]).astype(np.intp)
+        score = np.concatenate([res.q_t, res.rating[rest]]).astype(np.float32)
+        return GraspPick(grasps[order].copy(), np.full(len(order), GRASP_SOURCES["search"], np.int8), score)
+
     def __call__(self, view: SceneView, n: int, rng: np.random.Generator) -> GraspPick:
         grasps, res = self.result(view, rng)
         best = grasps[res.index[0]]

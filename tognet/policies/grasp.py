@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -11,6 +11,9 @@ from tognet.data.format import GRASP_SOURCES
 from tognet.grasping import cem, nms
 from tognet.policies.config import PolicyConfig
 from tognet.policies.view import GraspPick, SceneView
+
+if TYPE_CHECKING:
+    from tognet.grasping import CEMResult
 
 
 class NMSGrasps:
@@ -39,6 +42,11 @@ class NMSGrasps:
             view.cache[key] = (cands.grasps[keep], scores[keep])
         return view.cache[key]
 
+    def ranked(self, view: SceneView, rng: np.random.Generator) -> GraspPick:
+        """Every mode once, in the order this policy draws them (a random one, each held either way
+        round at random): what an arm's reach check falls back on (:mod:`tognet.planning.reach`)."""
+        return self(view, max(1, len(self.modes(view)[0])), rng)
+
     def __call__(self, view: SceneView, n: int, rng: np.random.Generator) -> GraspPick:
         grasps, scores = self.modes(view)
         m = len(grasps)
@@ -59,8 +67,8 @@ class CEMGrasp:
         self.model = model
         self.kind = kind
 
-    def best(self, view: SceneView, rng: np.random.Generator) -> tuple[NDArray[np.float64], float]:
-        """The scene's CEM grasp and its score (cached on the view)."""
+    def result(self, view: SceneView, rng: np.random.Generator) -> CEMResult:
+        """The scene's search: its best grasp and every grasp it scored (cached on the view)."""
         key = f"cem_{self.kind}_{id(self.model)}"
         if key not in view.cache:
             field_name = {"task": "q_t", "grasp": "q_g"}[self.kind]
@@ -69,9 +77,21 @@ class CEMGrasp:
                 crops, z = view.crops(grasps)
                 return np.asarray(getattr(self.model.predict(crops, z), field_name), dtype=np.float64)
 
-            result = cem(score, view.candidates.grasps, self.config.cem, rng)
-            view.cache[key] = (result.best, result.best_score)
+            view.cache[key] = cem(score, view.candidates.grasps, self.config.cem, rng)
         return view.cache[key]
+
+    def best(self, view: SceneView, rng: np.random.Generator) -> tuple[NDArray[np.float64], float]:
+        """The scene's CEM grasp and its score (cached on the view)."""
+        result = self.result(view, rng)
+        return result.best, result.best_score
+
+    def ranked(self, view: SceneView, rng: np.random.Generator) -> GraspPick:
+        """Every grasp the search scored, best score first (its best grasp first): what an arm's reach
+        check falls back on (:mod:`tognet.planning.reach`)."""
+        result = self.result(view, rng)
+        order = np.argsort(-result.scores, kind="stable")
+        return GraspPick(result.grasps[order].copy(), np.full(len(order), GRASP_SOURCES["cem"], np.int8),
+                         result.scores[order].astype(np.float32))
 
     def __call__(self, view: SceneView, n: int, rng: np.random.Generator) -> GraspPick:
         grasp, score = self.best(view, rng)
