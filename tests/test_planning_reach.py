@@ -97,7 +97,7 @@ def test_the_envelope_holds_what_the_arm_reaches_and_drops_what_it_does_not(name
 def test_candidates_beyond_the_arm_are_dropped_before_scoring_and_the_rest_kept():
     from tognet.planning.reach import OutOfReach
 
-    reach = _reach("sawyer")  # its base at (0, -0.6), facing +y
+    reach = _reach("sawyer", (0.0, -0.6, 0.0), math.pi / 2)  # its base at (0, -0.6), facing +y
     near = [(-0.3, 0.0, 0.02, 0.0), (0.1, -0.2, 0.05, 2.0), (0.2, 0.1, 0.02, 4.0)]
     far = [(0.0, 1.2, 0.02, 0.0), (-1.4, -0.6, 0.02, 1.0)]
     cands = _candidates(near + far)
@@ -115,7 +115,7 @@ def test_candidates_beyond_the_arm_are_dropped_before_scoring_and_the_rest_kept(
 def test_a_choice_out_of_reach_is_passed_over_for_the_next_and_the_plan_says_why():
     from tognet.planning.reach import Dropped, Option, OutOfReach
 
-    reach = _reach("panda")  # its base at (0, -0.5), facing +y
+    reach = _reach("panda", (0.0, -0.5, 0.0), math.pi / 2)  # its base at (0, -0.5), facing +y
     close = np.array([0.05, -0.3, 0.1, math.pi / 2])  # 20 cm from the base: its lift folds joint 4 too far
     twin = close + np.array([0.005, 0.0, 0.0, 0.05])  # as close: passed over without a check of its own
     good = np.array([-0.3, 0.0, 0.02, 0.3])
@@ -156,7 +156,7 @@ def test_every_planner_plans_within_the_arm_and_takes_the_next_grasp_when_its_ow
         if method == "Oracle":  # only grasps within the arm's reach are tried in the simulator
             assert info["reached"] >= 1 and reach.own_steps(plan.grasp).stuck is None
             continue
-        trial = plan_reach(sim.config, sim.task, reach.ik, plan.grasp[:3], plan.grasp[3], obs.reference,
+        trial = plan_reach(sim.config, sim.task, reach.solver, plan.grasp[:3], plan.grasp[3], obs.reference,
                            plan.action)  # checked again, apart from the planner
         assert trial.stuck is None, (method, trial.stuck)
         assert plan.info["candidates"] == 200 - info["dropped"]
@@ -264,5 +264,5 @@ def test_tognet_plan_without_a_reference_checks_the_grasp_and_says_so(image):
     assert run.exit_code == 0, run.output
     robot = json.loads(out.read_text())["robot"]
     assert [s["step"] for s in robot["trajectory"]] == ["the approach", "the grasp", "the lift"]
-    assert not robot["with_task"] and robot["base"]["position"] == [0.0, -0.5, 0.0]
+    assert not robot["with_task"] and robot["base"]["position"] == [-0.2, 0.45, 0.0]  # the Panda's default
     assert "without a reference point (--reference)" in run.output

@@ -268,7 +268,7 @@ class ArmReach:
     the grasp's alone). RobotExtraMissing without the robot extra."""
 
     def __init__(self, sim_config: Any, task: Any = None, config: ReachConfig | None = None) -> None:
-        from tognet.sim.arm import arm_kinematics
+        from tognet.sim.arm import arm_solver
         from tognet.sim.robot.arms import arm_spec
 
         if sim_config.robot.name == "floating":
@@ -276,7 +276,9 @@ class ArmReach:
         self.sim_config = sim_config
         self.task = task
         self.config = config or ReachConfig()
-        self.arm, self.ik = arm_kinematics(sim_config)
+        # The arm's kinematics and its resolved-rate step, as the simulator drives it (tognet.sim.arm).
+        self.solver = arm_solver(sim_config)
+        self.arm = self.solver.arm
         r, spec = sim_config.robot, arm_spec(sim_config.robot.name)
         self.name: str = r.name
         self.base_position = tuple(float(v) for v in (r.base_position or spec.base_pos))
@@ -352,8 +354,8 @@ class ArmReach:
         if key not in self._own:
             if len(self._own) >= CACHE_SIZE:
                 self._own.clear()
-            self._own[key] = reach_steps(self.ik, trial_steps(self.sim_config, None, g[:3], float(g[3]), None,
-                                                               None))
+            steps = trial_steps(self.sim_config, None, g[:3], float(g[3]), None, None)
+            self._own[key] = reach_steps(self.solver, steps)
         return self._own[key]
 
     def trial(self, grasp: ArrayLike, action: ArrayLike, reference: ArrayLike | None) -> Any:
@@ -373,10 +375,10 @@ class ArmReach:
             return Reach(steps, None, ArmStuck("unreachable", steps[int(np.argmax(far))][0]))
         # The wrist turned the short way round first (plan_reach's first try); only a joint limit can make
         # the long way round worth trying: an unreachable position stays one whichever way the wrist turns.
-        short = reach_steps(self.ik, steps)
+        short = reach_steps(self.solver, steps)
         if short.stuck is None or short.stuck.reason != "joint_limit":
             return short
-        return plan_reach(self.sim_config, self.task, self.ik, g[:3], float(g[3]), ref, act)
+        return plan_reach(self.sim_config, self.task, self.solver, g[:3], float(g[3]), ref, act)
 
     def _near(self, grasp: NDArray[np.float64], others: list[NDArray[np.float64]], spacing: float,
               angle: float) -> bool:
