@@ -300,6 +300,7 @@ CASES: dict[str, Case] = {
 
     # sim
     "sim-task": Case("sim --task juggling", "juggling"),
+    "sim-robot-unknown": Case(f"{S} --robot ur5", "floating, sawyer, panda"),
     "sim-object": Case(f"{S} --object spoon", "spoon"),
     "sim-objects-missing": Case(f"{S} --objects @nope --object x", "nope"),
     "sim-objects-file": Case(f"{S} --objects @afile.txt --object x", "afile.txt"),
@@ -405,6 +406,8 @@ CASES: dict[str, Case] = {
 
     # collect
     "collect-task": Case("collect --task juggling --objects @objs_train --out @out", "juggling"),
+    "collect-robot-unknown": Case("collect --task hammering --objects @objs_train --out @out --robot ur5",
+                                  "--robot"),
     "collect-objects-missing": Case("collect --task hammering --objects @nope --out @out", "nope"),
     "collect-objects-file": Case("collect --task hammering --objects @afile.txt --out @out", "afile.txt"),
     "collect-objects-empty": Case("collect --task hammering --objects @adir --out @out", "catalog"),
@@ -520,6 +523,7 @@ CASES: dict[str, Case] = {
     # evaluate
     "eval-task": Case("evaluate --task juggling --episodes 1 --out @out", "juggling"),
     "eval-methods": Case(f"{E} --methods TOG-Nett", "tog-nett"),
+    "eval-robot-unknown": Case(f"{E} --robot kuka", "kuka"),
     "eval-category": Case("evaluate --task hammering --episodes 1 --category pg-fancy --out @out",
                           "pg-fancy"),
     "eval-objects-missing": Case("evaluate --task hammering --episodes 1 --objects @nope --out @out", "nope"),
