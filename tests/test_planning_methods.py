@@ -125,3 +125,20 @@ def test_each_method_is_one_row_of_the_table_and_a_new_row_plans(models, objects
     assert plan.method == row.name and plan.info["action_source"] == ACTION_SOURCES["expert"]
     np.testing.assert_array_equal(plan.grasp, ours.grasp)
     assert sim.execute(plan.grasp_pose, plan.action, seed=0).failure in FailureReason
+
+
+def test_the_oracles_cache_lets_a_finished_simulator_go(objects):
+    """One Oracle planner per simulator, cached beside it: once a job drops its simulator, the cache must
+    not keep it (and its world) alive for the rest of the worker's life."""
+    import gc
+    import weakref
+
+    from tognet.planning import methods
+
+    sim = Simulator(SimConfig(), "hammering", objects["primitive"])
+    oracle = methods.oracle_for(sim, PlanConfig())
+    assert methods.oracle_for(sim, PlanConfig()) is oracle  # cached
+    gone = weakref.ref(sim)
+    del sim, oracle
+    gc.collect()
+    assert gone() is None

@@ -141,7 +141,9 @@ def oracle_for(sim: Any, config: PlanConfig, reach: ArmReach | None = None) -> O
     per_sim = _ORACLES.setdefault(sim, {})
     key = (repr(config), id(reach))  # frozen dataclasses all the way down: equal settings, equal text
     if key not in per_sim:
-        per_sim[key] = OraclePlanner(sim, config, reach)
+        # The planner holds the simulator by a weak proxy: a strong one from the cache's value would keep
+        # its own key (and the whole simulator) alive, one per job, for as long as the worker runs.
+        per_sim[key] = OraclePlanner(weakref.proxy(sim), config, reach)
     return per_sim[key]
 
 
