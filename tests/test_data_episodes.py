@@ -165,4 +165,5 @@ def test_failure_codes_follow_the_enum_and_keep_their_stored_values():
     assert list(FAILURE_CODES) == [r.value for r in FailureReason]
     # Shards already on disk hold these integers: they must never change.
     assert FAILURE_CODES == {"none": 0, "grasp_failed": 1, "dropped": 2, "collision_before_motion": 3,
-                             "missed": 4, "task_failed": 5, "timeout": 6, "unstable": 7}
+                             "missed": 4, "task_failed": 5, "timeout": 6, "unstable": 7,
+                             "unreachable": 8, "joint_limit": 9}  # the arm's, added at the end

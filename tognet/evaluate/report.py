@@ -197,7 +197,8 @@ def failure_table(results: dict[str, Any], task: str, sub: str) -> Table:
                   note="grasp_failed: not held clear of the table after the lift; dropped: slipped out "
                        "after a good grasp; collision_before_motion: the tool or hand hit a prop on the way; "
                        "missed: never touched the targets; task_failed: touched them, not enough; "
-                       "unreachable: the plan lies outside the gripper's travel; no_grasp: no antipodal "
+                       "unreachable: the plan lies outside the gripper's travel (an arm: out of its reach); "
+                       "joint_limit: an arm reaches it only past a joint's range; no_grasp: no antipodal "
                        "candidate.")
     for m, s in stats.items():
         n = s["valid"] or 1
