@@ -30,7 +30,7 @@ def test_sim_config_has_a_section_per_registered_task():
     for name in TASK_NAMES:
         assert isinstance(cfg.task_config(name), task_config_class(name))
         assert cfg.task_config(name) is getattr(cfg, name)
-    assert list(cfg.to_dict()) == ["physics", "world", "camera", "gripper", "episode", *TASK_NAMES]
+    assert list(cfg.to_dict()) == ["physics", "world", "camera", "gripper", "episode", "robot", *TASK_NAMES]
     with pytest.raises(ValueError, match="unknown task"):
         cfg.task_config("juggling")
 
@@ -44,11 +44,13 @@ def _saved_sim_config(model: str) -> dict:
 def test_a_sim_config_saved_in_the_old_layout_loads_and_round_trips(model, tmp_path):
     saved = _saved_sim_config(model)
     cfg = SimConfig.from_dict(saved)
-    # The same sections, keys and values, in the same order; a task registered after the model was saved
-    # (e.g. pulling) adds its section with its defaults, after the others.
+    # The same sections, keys and values, in the same order; a section added after the model was saved
+    # (the robot, a task registered later such as pulling) comes with its defaults, in its place.
     added = [name for name in TASK_NAMES if name not in saved]
     assert {k: v for k, v in cfg.to_dict().items() if k in saved} == saved
-    assert list(cfg.to_dict()) == [*saved, *added]
+    assert [k for k in cfg.to_dict() if k in saved] == list(saved)
+    assert set(cfg.to_dict()) - set(saved) <= {"robot", *added}
+    assert cfg.robot.name == "floating"  # a model's world without a robot section is the floating gripper
     for name in added:
         assert cfg.task_config(name) == task_config_class(name)()
     path = cfg.save(tmp_path / "sim.json")

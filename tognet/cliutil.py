@@ -59,11 +59,9 @@ def robot_config(sim: Any, robot: str | None, option: str = "--robot") -> Any:
     if robot not in ROBOTS:
         raise ValueError(f"unknown {option} {robot!r}: choose from {', '.join(ROBOTS)}")
     if robot != "floating":
-        from tognet.sim.robot.arms import assets_dir
-        from tognet.sim.robot.ik import _require_mink
+        from tognet.sim.robot.ik import require_extra
 
-        assets_dir()
-        _require_mink()
+        require_extra()
     return with_robot(sim, robot)
 
 

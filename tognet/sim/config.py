@@ -236,8 +236,8 @@ class RobotConfig(Config):
     An arm runs the same trial through joint servos: every move of the hand's setpoint is turned into
     joint speeds by resolved-rate inverse kinematics, each capped at its joint's speed limit (the arm then
     falls behind and catches up) and kept inside the joint ranges. Its last joint is the hand's wrist and
-    takes the wrist servo of ``SimConfig.gripper`` (its stiffness, torque limit and rotor inertia: the
-    hammering task's design holds the wrist's torque low) but the arm's own speed limit."""
+    takes the wrist servo of ``SimConfig.gripper`` (its stiffness, torque limit and rotor inertia: a task
+    whose tool strikes may rely on the wrist's torque being low) but the arm's own speed limit."""
 
     name: Literal["floating", "sawyer", "panda"] = doc(
         "floating", "What carries the hand: floating, sawyer or panda."
@@ -337,7 +337,7 @@ def with_robot(config: SimConfig, name: str) -> SimConfig:
     An arm's wrist turns slower than the floating base's (``gripper.yaw_speed``: the Sawyer's last joint
     4.545 rad/s, the Panda's 2.61, against 9), and a swing carries energy in proportion to the speed
     squared. The presets scale what a swing works against by that ratio squared (0.255 for the Sawyer,
-    0.084 for the Panda): the wrist's torque limit and the hammering peg's dry friction. The peg then
+    0.084 for the Panda): the wrist's torque limit and the struck prop's dry friction. The prop then
     moves as far per unit of the swing's energy as with the floating base, the wrist still cannot push
     it home slowly (torque / lever below the friction, scaled alike), and the grasps that hammer with
     the floating base hammer with the arm (benchmarks/RESULTS.md)."""

@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tognet.sim.robot.arms import BASE_BODY, EXTRA_HINT, ArmModel, RobotExtraMissing
+from tognet.sim.robot.arms import BASE_BODY, EXTRA_HINT, ArmModel, RobotExtraMissing, assets_dir
 
 try:
     import mink
@@ -71,6 +71,13 @@ class IKSettings:
 def _require_mink() -> None:
     if mink is None:
         raise RobotExtraMissing(f"mink is not installed: {EXTRA_HINT}")
+
+
+def require_extra() -> None:
+    """RobotExtraMissing (one line, with the install hint) unless the robot extra is installed: robosuite's
+    arm models and mink."""
+    assets_dir()
+    _require_mink()
 
 
 def grasp_frame(pose: ArrayLike) -> NDArray[np.float64]:
