@@ -5,14 +5,15 @@ core.
 
 For each task (hammering, sweeping, pulling) and ``--objects`` fresh PG-Primitive test objects, ``--scenes``
 scenes each; on every scene TOG-Net (the shipped model) and Antipodal+Random plan with the floating gripper,
-the Sawyer and the Panda (each at its default base, or at ``--base``), from generators in the same state,
-after one untimed plan each. Prints per arm and method: the median and p90 plan time and the ratio of the
-medians to the floating gripper's (the same scenes); how many of the 200 candidates the envelope dropped
-before scoring; how many plans were not the method's own choice (a grasp further down its ranking); how
-many found nothing within reach (OutOfReach, by task and the step where most of its checked grasps failed);
-how many were the floating gripper's own plan. ``--exact``: also every candidate's own steps (approach,
-grasp, lift) through inverse kinematics, to say how many the arm truly cannot reach (slow: up to 0.2 s a
-candidate out of reach). The machine is shared: read the load average printed with the times.
+the Sawyer and the Panda (each with its preset, at its default base or at ``--base``), from generators in
+the same state, after one untimed plan each. Prints per arm and method: the median and p90 plan time and
+the ratio of the medians to the floating gripper's (the same scenes); how many of the 200 candidates the
+envelope dropped before scoring; how many plans were not the method's own choice (a grasp further down its
+ranking); how many found nothing within reach (OutOfReach, by task and the step where most of its checked
+grasps failed); how many were the floating gripper's own plan. ``--exact``: also every candidate's own
+steps (approach, grasp, lift) through the arm's check, to say how many the arm truly cannot reach (slow:
+up to a few tenths of a second a candidate out of reach). The machine is shared: read the load average
+printed with the times.
 """
 
 from __future__ import annotations
@@ -45,7 +46,7 @@ def main() -> None:
     from tognet.planning import make_planner
     from tognet.planning.reach import OutOfReach, reach_of
     from tognet.sim import SimConfig, Simulator
-    from tognet.sim.config import RobotConfig
+    from tognet.sim.config import with_robot
 
     torch.set_num_threads(1)
     os.sched_setaffinity(0, sorted(os.sched_getaffinity(0))[:1])
@@ -65,9 +66,10 @@ def main() -> None:
             for obj in objects:
                 sims = {}
                 for arm in arms:
-                    base = {} if args.base is None or arm == "floating" else {
-                        "base_position": tuple(args.base[:3]), "base_yaw": args.base[3]}
-                    config = SimConfig().replace(robot=RobotConfig(name=arm, **base))
+                    config = with_robot(SimConfig(), arm)  # an arm's preset, as tognet evaluate --robot
+                    if args.base is not None and arm != "floating":
+                        config = config.replace(robot=config.robot.replace(
+                            base_position=tuple(args.base[:3]), base_yaw=args.base[3]))
                     sims[arm] = Simulator(config, task, obj)
                 planners = {(arm, m): make_planner(m, sims[arm].task, task_model=model, sim=sims[arm])
                             for arm in arms for m in methods}

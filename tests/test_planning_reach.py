@@ -22,10 +22,18 @@ MODELS = Path(__file__).resolve().parent.parent / "tognet" / "models"
 EDGE_BASE = (0.35, -0.6, 0.0)
 
 
-def _sim_config(name, base=None, yaw=None):
-    from tognet.sim.config import RobotConfig, SimConfig
+#: The near side of the table (y < 0), facing +y: where the tests put the arms (their defaults stand at the
+#: far side, facing -y).
+NEAR = {"sawyer": (0.0, -0.6, 0.0), "panda": (0.0, -0.5, 0.0)}
 
-    return SimConfig().replace(robot=RobotConfig(name=name, base_position=base, base_yaw=yaw))
+
+def _sim_config(name, base=None, yaw=None):
+    from tognet.sim.config import SimConfig, with_robot
+
+    config = with_robot(SimConfig(), name)
+    if base is None:
+        return config
+    return config.replace(robot=config.robot.replace(base_position=base, base_yaw=yaw))
 
 
 def _reach(name, base=None, yaw=None, task=None):
@@ -74,7 +82,7 @@ def test_the_envelope_holds_what_the_arm_reaches_and_drops_what_it_does_not(name
     of reach for inverse kinematics (the envelope drops only the unreachable), and one ``slack`` inside it is
     reached (it is that close to the arm's reach: the Panda's within 3 cm, the Sawyer's, whose links are
     offset from one another, within 20 cm)."""
-    reach = _reach(name)
+    reach = _reach(name, NEAR[name], math.pi / 2)
     env = reach.envelope
     x0, y0, _ = reach.base_position
     for phi in (0.0, math.pi / 2):
@@ -97,7 +105,7 @@ def test_the_envelope_holds_what_the_arm_reaches_and_drops_what_it_does_not(name
 def test_candidates_beyond_the_arm_are_dropped_before_scoring_and_the_rest_kept():
     from tognet.planning.reach import OutOfReach
 
-    reach = _reach("sawyer", (0.0, -0.6, 0.0), math.pi / 2)  # its base at (0, -0.6), facing +y
+    reach = _reach("sawyer", NEAR["sawyer"], math.pi / 2)
     near = [(-0.3, 0.0, 0.02, 0.0), (0.1, -0.2, 0.05, 2.0), (0.2, 0.1, 0.02, 4.0)]
     far = [(0.0, 1.2, 0.02, 0.0), (-1.4, -0.6, 0.02, 1.0)]
     cands = _candidates(near + far)
@@ -115,7 +123,7 @@ def test_candidates_beyond_the_arm_are_dropped_before_scoring_and_the_rest_kept(
 def test_a_choice_out_of_reach_is_passed_over_for_the_next_and_the_plan_says_why():
     from tognet.planning.reach import Dropped, Option, OutOfReach
 
-    reach = _reach("panda", (0.0, -0.5, 0.0), math.pi / 2)  # its base at (0, -0.5), facing +y
+    reach = _reach("panda", NEAR["panda"], math.pi / 2)
     close = np.array([0.05, -0.3, 0.1, math.pi / 2])  # 20 cm from the base: its lift folds joint 4 too far
     twin = close + np.array([0.005, 0.0, 0.0, 0.05])  # as close: passed over without a check of its own
     good = np.array([-0.3, 0.0, 0.02, 0.3])
@@ -132,8 +140,8 @@ def test_a_choice_out_of_reach_is_passed_over_for_the_next_and_the_plan_says_why
     assert "the lift is past a joint's limit" in got.summary()
     info = got.info()
     assert info["rank"] == 2 and info["passed_over"][0]["reason"] == "joint_limit"
-    with pytest.raises(OutOfReach, match="of the planner's 1 best grasps checked by inverse kinematics, the "
-                                         "lift is past a joint's limit for 1"):
+    with pytest.raises(OutOfReach, match="of the planner's 1 best grasps checked against the arm's "
+                                         "kinematics, the lift is past a joint's limit for 1"):
         reach.choose([option(close), option(twin)], None, Dropped(2))
 
 
@@ -156,8 +164,8 @@ def test_every_planner_plans_within_the_arm_and_takes_the_next_grasp_when_its_ow
         if method == "Oracle":  # only grasps within the arm's reach are tried in the simulator
             assert info["reached"] >= 1 and reach.own_steps(plan.grasp).stuck is None
             continue
-        trial = plan_reach(sim.config, sim.task, reach.solver, plan.grasp[:3], plan.grasp[3], obs.reference,
-                           plan.action)  # checked again, apart from the planner
+        trial = plan_reach(reach.sim_config, sim.task, reach.solver, plan.grasp[:3], plan.grasp[3],
+                           obs.reference, plan.action)  # checked again, apart from the planner
         assert trial.stuck is None, (method, trial.stuck)
         assert plan.info["candidates"] == 200 - info["dropped"]
     assert not np.allclose(plan.grasp, floating.grasp)
@@ -264,5 +272,5 @@ def test_tognet_plan_without_a_reference_checks_the_grasp_and_says_so(image):
     assert run.exit_code == 0, run.output
     robot = json.loads(out.read_text())["robot"]
     assert [s["step"] for s in robot["trajectory"]] == ["the approach", "the grasp", "the lift"]
-    assert not robot["with_task"] and robot["base"]["position"] == [-0.2, 0.45, 0.0]  # the Panda's default
+    assert not robot["with_task"] and robot["base"]["position"] == [-0.2, 0.45, 0.0]  # the Panda's own
     assert "without a reference point (--reference)" in run.output

@@ -11,8 +11,8 @@ from tognet.cliutil import out_file, user_errors
 from tognet.tasks import TASK_NAMES, reference_points
 
 DEPTH_SUFFIXES = (".png", ".npy", ".npz")
-#: The arms ``--robot`` names (tognet.sim.robot.arms.ARM_NAMES, without importing MuJoCo for --help).
-ROBOTS = ("sawyer", "panda")
+#: What ``--robot`` names (tognet.sim.config.ROBOTS, without importing MuJoCo for --help).
+ROBOTS = ("floating", "sawyer", "panda")
 
 
 def parse_object(text: str | None) -> int | tuple[float, float] | None:
@@ -70,12 +70,13 @@ def plan_cmd(
     robot: str | None = typer.Option(
         None, "--robot", metavar="|".join(ROBOTS), help="Plan for this arm beside the table, carrying the "
         "simulator's hand (pip install 'tognet\\[robot]'): only grasps and motions it reaches (the task's "
-        "motion too when --reference is given), and the joint trajectory in --out's JSON (robot)."),
+        "motion too when --reference is given), and the joint trajectory in --out's JSON (robot). "
+        "floating: as without the option."),
     base_pose: Path | None = typer.Option(
         None, "--base-pose", help="The --robot arm's base: JSON {\"position\": \\[x, y, z], \"yaw\": rad} "
         "(m, in the frame of --reference: the world frame of --camera-pose, else the plan's table frame; "
-        "z = 0 the table top). Default: the arm's own, 0.6 m (sawyer) or 0.5 m (panda) from the origin at "
-        "-y, facing +y."),
+        "z = 0 the table top). Default: the arm's own (sawyer (-0.2, 0.6, 0), panda (-0.2, 0.45, 0), yaw "
+        "-pi/2: facing -y)."),
 ) -> None:
     """Plan a task-oriented grasp and the task's motion on one depth image from your own camera.
 
@@ -88,8 +89,6 @@ def plan_cmd(
     choice = parse_object(object_)
     if task not in TASK_NAMES:
         raise ValueError(f"unknown --task '{task}'; known: {', '.join(TASK_NAMES)}")
-    if robot is not None and robot not in ROBOTS:
-        raise ValueError(f"unknown --robot '{robot}'; known: {', '.join(ROBOTS)}")
     if base_pose is not None and robot is None:
         raise ValueError("--base-pose places the --robot arm: name the arm with --robot sawyer|panda")
     _check_output(out, ".json", "--out")
@@ -103,12 +102,14 @@ def plan_cmd(
         raise ValueError(f"--reference takes 3 finite numbers, got {' '.join(map(str, reference))}")
     arm = None
     if robot is not None:
-        from tognet.planning.reach import load_base_pose, require_robot_extra
-        from tognet.sim.config import RobotConfig
+        from tognet.cliutil import robot_config
+        from tognet.planning.reach import load_base_pose
+        from tognet.sim.config import SimConfig
 
         position, yaw = load_base_pose(base_pose) if base_pose is not None else (None, None)
-        require_robot_extra()
-        arm = RobotConfig(name=robot, base_position=position, base_yaw=yaw)  # type: ignore[arg-type]
+        arm = robot_config(SimConfig(), robot)  # the arm's preset; one line without the robot extra
+        if base_pose is not None:
+            arm = arm.replace(robot=arm.robot.replace(base_position=position, base_yaw=yaw))
     cfg = UserPlanConfig.load(config) if config is not None else UserPlanConfig()
     cfg = cfg.replace(top=top, seed=seed)
     k = load_intrinsics(intrinsics)
@@ -156,6 +157,8 @@ def plan_cmd(
         typer.echo(f"arm: {r.arm}, base at {_vec(r.base_position, 3)} m, yaw {r.base_yaw:+.3f} rad "
                    f"({r.frame} frame): {len(c.reach.path.q)} joint waypoints ({steps}), at least "
                    f"{c.reach.path.min_duration:.2f} s at its joints' speed limits"
+                   + (f"; {c.dropped.count} of {c.dropped.candidates} candidates beyond its reach"
+                      if c.dropped.count else "")
                    + ("; the joint angles in --out's JSON (robot)" if out is None else ""))
     for text in plan.warnings:
         typer.secho(f"warning: {text}", fg=typer.colors.YELLOW, err=True)

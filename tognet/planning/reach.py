@@ -8,18 +8,20 @@ With an arm carrying the hand (``SimConfig.robot`` other than the floating gripp
    wrist beyond its reach are dropped (:class:`Envelope`: the arm's longest stretch from its shoulder,
    vectorised, microseconds per candidate; it drops no grasp the arm reaches). A scene with none left is
    :class:`OutOfReach` at once.
-2. **After the planner's choice**, inverse kinematics checks its grasp and action through the whole trial
-   (:func:`tognet.sim.arm.plan_reach`: approach, grasp, lift, transport, start pose, motion). Where the arm
-   cannot make it, the planner's next grasp is taken (:func:`ranked_grasps`: CEM's next best score, the
-   next NMS mode, the action search's next grasp) with its own action; grasps near one whose own steps
-   were out of reach are passed over unchecked, and after ``ReachConfig.tries`` grasps found out of reach
-   the plan is :class:`OutOfReach`, saying where they fail. The plan says which grasp it took and why
+2. **After the planner's choice**, the simulator's own check of a trial (:func:`tognet.sim.arm.plan_reach`:
+   inverse kinematics for the approach, then a dry run of the arm's resolved-rate moves through the grasp,
+   lift, transport, start pose and motion) checks its grasp and action. Where the arm cannot make it, the
+   planner's next grasp is taken (:func:`ranked_grasps`: CEM's next best score, the next NMS mode, the
+   action search's next grasp) with its own action; grasps near one whose own steps were out of reach are
+   passed over unchecked, and after ``ReachConfig.tries`` grasps found out of reach the plan is
+   :class:`OutOfReach`, saying where they fail. The plan says which grasp it took and why
    (``Plan.info["reach"]``).
 
-An IK solve costs 1-3 ms where it reaches (a trial's 6-8 poses about 10 ms) and up to 0.2 s where it does
-not (every seed, then the unconstrained solve that tells unreachable from joint_limit): checking every
-candidate before scoring would cost seconds per plan, so only the grasps the planner would take are
-checked, best first. Without an arm none of this runs, and the floating gripper's plans are unchanged.
+A check costs about 10 ms where the arm reaches the trial and up to a few tenths of a second where it does
+not (every IK seed, the unconstrained solve that tells unreachable from joint_limit, the wrist turned the
+long way round): checking every candidate before scoring would cost seconds per plan, so only the grasps
+the planner would take are checked, best first. Without an arm none of this runs, and the floating
+gripper's plans are unchanged.
 """
 
 from __future__ import annotations
@@ -276,9 +278,8 @@ class ArmReach:
         self.sim_config = sim_config
         self.task = task
         self.config = config or ReachConfig()
-        # The arm's kinematics and its resolved-rate step, as the simulator drives it (tognet.sim.arm).
-        self.solver = arm_solver(sim_config)
-        self.arm = self.solver.arm
+        self.solver = arm_solver(sim_config)  # the simulator's own (shared: its checks leave it as found)
+        self.arm, self.ik = self.solver.arm, self.solver.ik
         r, spec = sim_config.robot, arm_spec(sim_config.robot.name)
         self.name: str = r.name
         self.base_position = tuple(float(v) for v in (r.base_position or spec.base_pos))
@@ -345,24 +346,25 @@ class ArmReach:
 
     # --- after the choice ------------------------------------------------------------------------------
     def own_steps(self, grasp: ArrayLike) -> Any:
-        """The grasp's own steps (approach, grasp, lift) through inverse kinematics: a
-        :class:`tognet.sim.arm.Reach` (cached per grasp)."""
-        from tognet.sim.arm import reach_steps, trial_steps
+        """The grasp's own steps (approach, grasp, lift) as the simulator checks them
+        (:func:`tognet.sim.arm.plan_reach` without a task): a :class:`tognet.sim.arm.Reach` (cached per
+        grasp)."""
+        from tognet.sim.arm import plan_reach
 
         g = np.asarray(grasp, dtype=np.float64).reshape(4)
         key = g.tobytes()
         if key not in self._own:
             if len(self._own) >= CACHE_SIZE:
                 self._own.clear()
-            steps = trial_steps(self.sim_config, None, g[:3], float(g[3]), None, None)
-            self._own[key] = reach_steps(self.solver, steps)
+            self._own[key] = plan_reach(self.sim_config, None, self.solver, g[:3], float(g[3]), None, None)
         return self._own[key]
 
     def trial(self, grasp: ArrayLike, action: ArrayLike, reference: ArrayLike | None) -> Any:
-        """The whole trial of ``grasp`` and ``action`` (:func:`tognet.sim.arm.plan_reach`); the grasp's own
-        steps alone without a task or a reference point. A step beyond the envelope (a start pose far from
-        the arm) is out of reach without inverse kinematics (``path`` None)."""
-        from tognet.sim.arm import Reach, plan_reach, reach_steps, trial_steps
+        """The whole trial of ``grasp`` and ``action`` as the simulator checks it before running it
+        (:func:`tognet.sim.arm.plan_reach`, without the execution noise); the grasp's own steps alone
+        without a task or a reference point. A step beyond the envelope (a start pose far from the arm) is
+        out of reach without inverse kinematics (``path`` None)."""
+        from tognet.sim.arm import Reach, plan_reach, trial_steps
         from tognet.sim.physics import ArmStuck
 
         g = np.asarray(grasp, dtype=np.float64).reshape(4)
@@ -373,11 +375,6 @@ class ArmReach:
         far = self.envelope.excess([[*pos, yaw] for _, pos, yaw in steps]) > 0
         if far.any():
             return Reach(steps, None, ArmStuck("unreachable", steps[int(np.argmax(far))][0]))
-        # The wrist turned the short way round first (plan_reach's first try); only a joint limit can make
-        # the long way round worth trying: an unreachable position stays one whichever way the wrist turns.
-        short = reach_steps(self.solver, steps)
-        if short.stuck is None or short.stuck.reason != "joint_limit":
-            return short
         return plan_reach(self.sim_config, self.task, self.solver, g[:3], float(g[3]), ref, act)
 
     def _near(self, grasp: NDArray[np.float64], others: list[NDArray[np.float64]], spacing: float,
@@ -452,7 +449,7 @@ class ArmReach:
             items = [f"{what} is {_REASONS.get(reason, reason)} for {n}"
                      for (what, reason), n in sorted(counts.items(), key=lambda kv: -kv[1])]
             head = (f"of the planner's {len(passed)} best grasps {'left ' if dropped.count else ''}"
-                    "checked by inverse kinematics, ")
+                    "checked against the arm's kinematics, ")
             parts.append(head + ", ".join(items)
                          + (f" (ReachConfig.tries = {self.config.tries})" if exhausted else ""))
         return f"no grasp within the {self.name}'s reach ({self.describe_base()}): " + "; ".join(parts)
@@ -467,17 +464,6 @@ def reach_of(sim_config: Any, task: Any, config: ReachConfig | None = None) -> A
 
 
 # --- a robot's base for tognet plan ----------------------------------------------------------------------
-def require_robot_extra() -> None:
-    """RobotExtraMissing (with the install hint) unless the robot extra's arm models and IK are installed."""
-    import importlib.util
-
-    from tognet.sim.robot.arms import EXTRA_HINT, RobotExtraMissing, assets_dir
-
-    assets_dir()
-    if importlib.util.find_spec("mink") is None:
-        raise RobotExtraMissing(f"mink is not installed: {EXTRA_HINT}")
-
-
 def load_base_pose(path: str | Path) -> tuple[tuple[float, float, float], float]:
     """The arm's base from a JSON file ``{"position": [x, y, z], "yaw": rad}`` (m; the frame of the plan's
     reference point: the camera pose's world frame, else the plan's table frame; z = 0 the table top):

@@ -470,9 +470,10 @@ class UserPlanner:
     ``checkpoint``: a path (default: the shipped model of ``task``) or a loaded predictor. ``num_threads``:
     torch's CPU threads (process-wide), set on loading; 1 by default (see ``TOGNetPredictor.load``).
 
-    ``robot``: plan for an arm beside the table (an arm's name, its default base, or a
-    ``tognet.sim.config.RobotConfig`` with its base in the frame of the reference point: the camera pose's
-    world frame, else the plan's table frame), carrying the simulator's hand: only grasps and motions it
+    ``robot``: plan for an arm beside the table (an arm's name: its preset and default base,
+    :func:`tognet.sim.config.with_robot`; a ``RobotConfig``, its base in the frame of the reference point:
+    the camera pose's world frame, else the plan's table frame; or a whole ``SimConfig``), carrying the
+    simulator's hand: only grasps and motions it
     reaches (:mod:`tognet.planning.reach`; the task's steps are checked when a reference point is given),
     and the joint trajectory of the chosen one (``UserPlan.robot``). RobotExtraMissing without the robot
     extra."""
@@ -486,11 +487,17 @@ class UserPlanner:
         self.config = config or UserPlanConfig()
         self.reach: ArmReach | None = None
         if robot is not None:  # before the model: a missing extra is said at once
-            from tognet.sim.config import RobotConfig, SimConfig
+            from tognet.sim.config import SimConfig, with_robot
 
-            robot = RobotConfig(name=robot) if isinstance(robot, str) else robot
-            if robot.name != "floating":
-                self.reach = ArmReach(SimConfig().replace(robot=robot), self.task, self.config.reach)
+            if isinstance(robot, SimConfig):
+                sim = robot
+            else:
+                name = robot if isinstance(robot, str) else robot.name
+                sim = with_robot(SimConfig(), name)
+                if not isinstance(robot, str):
+                    sim = sim.replace(robot=robot)
+            if sim.robot.name != "floating":
+                self.reach = ArmReach(sim, self.task, self.config.reach)
         self.predictor, self.checkpoint = _load_predictor(task, checkpoint, num_threads)
         try:
             self.crop: CropConfig = resolve_crop([self.predictor])
@@ -719,8 +726,9 @@ class UserPlanner:
         if not arm.choice.with_task:
             notes.append(f"without a reference point (--reference) the {self.task_name} task's motion is not "
                          f"checked against the {arm.arm}'s reach: its trajectory ends at the lift")
-        if len(search.chosen) < self.config.top + 1 and len(search.chosen) > 0:
-            notes.append(f"{len(search.chosen) - 1} alternative(s) within the {arm.arm}'s reach")
+        if len(search.chosen) < self.config.top + 1:
+            notes.append(f"only {len(search.chosen) - 1} of the {self.config.top} alternatives asked for "
+                         f"(--top) found within the {arm.arm}'s reach")
         return notes
 
     def _planned(self, search: _Search, view: _TableView, pose: NDArray[np.float64] | None,
