@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import typer
 
@@ -100,16 +101,7 @@ def plan_cmd(
         raise ValueError(f"--depth {depth}: unsupported file type '{depth.suffix}' (use .png, .npy or .npz)")
     if reference is not None and not all(math.isfinite(v) for v in reference):
         raise ValueError(f"--reference takes 3 finite numbers, got {' '.join(map(str, reference))}")
-    arm = None
-    if robot is not None:
-        from tognet.cliutil import robot_config
-        from tognet.planning.reach import load_base_pose
-        from tognet.sim.config import SimConfig
-
-        position, yaw = load_base_pose(base_pose) if base_pose is not None else (None, None)
-        arm = robot_config(SimConfig(), robot)  # the arm's preset; one line without the robot extra
-        if base_pose is not None:
-            arm = arm.replace(robot=arm.robot.replace(base_position=position, base_yaw=yaw))
+    arm = _arm_config(robot, base_pose)
     cfg = UserPlanConfig.load(config) if config is not None else UserPlanConfig()
     cfg = cfg.replace(top=top, seed=seed)
     k = load_intrinsics(intrinsics)
@@ -122,6 +114,37 @@ def plan_cmd(
         from tognet.planning.overlay import render_plan
 
         png = render_plan(plan, image, cfg.antipodal.max_width)
+    _print_plan(plan, task, out)
+    for text in plan.warnings:
+        typer.secho(f"warning: {text}", fg=typer.colors.YELLOW, err=True)
+    written = []
+    if out is not None:
+        written.append(str(plan.save(out)))
+    if png is not None and overlay is not None:
+        from tognet.io import atomic_write_bytes
+
+        written.append(str(atomic_write_bytes(overlay, png, fsync=False)))
+    if written:
+        typer.echo("wrote " + ", ".join(written))
+
+
+def _arm_config(robot: str | None, base_pose: Path | None) -> Any:
+    """The SimConfig of the --robot arm (its preset; its base from --base-pose), None without --robot."""
+    if robot is None:
+        return None
+    from tognet.cliutil import robot_config
+    from tognet.planning.reach import load_base_pose
+    from tognet.sim.config import SimConfig
+
+    position, yaw = load_base_pose(base_pose) if base_pose is not None else (None, None)
+    arm = robot_config(SimConfig(), robot)  # the arm's preset; one line without the robot extra
+    if base_pose is not None:
+        arm = arm.replace(robot=arm.robot.replace(base_position=position, base_yaw=yaw))
+    return arm
+
+
+def _print_plan(plan: Any, task: str, out: Path | None) -> None:
+    """What ``tognet plan`` prints about a plan: timing, table, object, grasp, scores, action, the arm."""
     g = plan.grasp
     t = {k_: 1000 * v for k_, v in plan.timing.items()}
     stages = ", ".join(f"{k_} {v:.0f}" for k_, v in t.items() if k_ != "total")
@@ -160,17 +183,6 @@ def plan_cmd(
                    + (f"; {c.dropped.count} of {c.dropped.candidates} candidates beyond its reach"
                       if c.dropped.count else "")
                    + ("; the joint angles in --out's JSON (robot)" if out is None else ""))
-    for text in plan.warnings:
-        typer.secho(f"warning: {text}", fg=typer.colors.YELLOW, err=True)
-    written = []
-    if out is not None:
-        written.append(str(plan.save(out)))
-    if png is not None and overlay is not None:
-        from tognet.io import atomic_write_bytes
-
-        written.append(str(atomic_write_bytes(overlay, png, fsync=False)))
-    if written:
-        typer.echo("wrote " + ", ".join(written))
 
 
 def register(app: typer.Typer) -> None:
