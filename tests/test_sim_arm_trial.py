@@ -114,3 +114,14 @@ def test_an_arm_trial_is_seeded(sawyer, tools):
     for a, b in zip(first, again, strict=True):
         assert (a.grasp_success, a.task_success, a.failure) == (b.grasp_success, b.task_success, b.failure)
         assert a.info.get("in_hand") == b.info.get("in_hand")
+
+
+def test_tognet_sim_runs_an_episode_on_the_arm():
+    """`tognet sim --robot sawyer`: the hand-made T hammer's known grasp hammers the peg home on the arm."""
+    from typer.testing import CliRunner
+
+    from tognet.cli import app
+
+    result = CliRunner().invoke(app, ["sim", "--task", "hammering", "--robot", "sawyer"])
+    assert result.exit_code == 0, result.output
+    assert "grasp_success=True task_success=True valid=True failure=none" in result.output
