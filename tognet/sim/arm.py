@@ -164,6 +164,9 @@ def reach_steps(solver: Any, steps: list[Step], q: Any = None, tolerance: float 
     arm = solver.arm
     poses = [(np.asarray(p, dtype=np.float64), float(yaw)) for _, p, yaw in steps]
     first = np.array([*poses[0][0], poses[0][1]])
+    # The IK result from the arm's home (the first seed): why no start reached the first step, if none did.
+    first_result: list[Any] = []
+
     def starts() -> Any:  # lazily: most trials need the first only
         if q is not None:
             yield np.asarray(q, dtype=np.float64)
@@ -171,6 +174,8 @@ def reach_steps(solver: Any, steps: list[Step], q: Any = None, tolerance: float 
         tried: list[Any] = []
         for seed in solver.ik.seeds(first, arm.home):
             result = solver.ik.solve(first, seed)
+            if not first_result:
+                first_result.append(result)
             if result.reached and not any(np.allclose(result.q, t, atol=1e-2) for t in tried):
                 tried.append(result.q)
                 yield result.q
@@ -184,17 +189,12 @@ def reach_steps(solver: Any, steps: list[Step], q: Any = None, tolerance: float 
         if best is None or run[1] > (best[1] or 0):
             best = run
     if best is None:  # no IK solution for the first step
-        result = solver.ik.solve(first)
-        path = JointPath(result.status, 0, np.zeros((0, len(arm.qpos_adr))), np.zeros(0),
-                         np.zeros(0, dtype=np.int64))
-        return Reach(steps, path, ArmStuck(result.status.value, steps[0][0]))
+        status = first_result[0].status if first_result else solver.ik.solve(first).status
+        path = JointPath.timed(status, 0, np.zeros((0, len(arm.qpos_adr))), arm.joint_speed_limits)
+        return Reach(steps, path, ArmStuck(status.value, steps[0][0]))
     qs, failed, reason = best
-    qarr = np.array(qs)
-    per_joint = np.abs(np.diff(qarr, axis=0)) / arm.joint_speed_limits
-    times = per_joint.max(axis=1) if len(per_joint) else np.zeros(0)
-    limiting = per_joint.argmax(axis=1) if len(per_joint) else np.zeros(0, dtype=np.int64)
     status = IKStatus.REACHED if failed is None else IKStatus(reason)
-    path = JointPath(status, failed, qarr, times, limiting)
+    path = JointPath.timed(status, failed, np.array(qs), arm.joint_speed_limits)
     return Reach(steps, path, None if failed is None else ArmStuck(reason, steps[failed][0]))
 
 

@@ -41,6 +41,7 @@ from tognet.sim.physics import (
     PROP,
     TABLE,
     TARGET,
+    ArmStuck,
     SimulationError,
     Unstable,
     same_prefix,
@@ -286,7 +287,7 @@ class Simulator(Trial):
             pose = np.array([x, y, base[2] + height, yaw])
             try:
                 self._arm_park = (pose, self._arm.solve(pose, "the park pose"))
-            except Exception as exc:
+            except ArmStuck as exc:
                 raise SimulationError(f"the {self.config.robot.name} arm cannot reach its park pose "
                                       f"{pose[:3].round(3).tolist()} (robot.park): {exc}") from exc
         pose, q = self._arm_park

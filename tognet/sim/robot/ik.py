@@ -250,6 +250,17 @@ class JointPath:
     def min_duration(self) -> float:
         return float(self.min_times.sum())
 
+    @classmethod
+    def timed(cls, status: IKStatus, failed_at: int | None, q: ArrayLike,
+              speed_limits: NDArray[np.float64]) -> JointPath:
+        """The path through waypoints ``q`` ((n, joints)), each segment's shortest time from the joints'
+        ``speed_limits``."""
+        q = np.asarray(q, dtype=np.float64).reshape(-1, len(speed_limits))
+        per_joint = np.abs(np.diff(q, axis=0)) / speed_limits
+        times = per_joint.max(axis=1) if len(per_joint) else np.zeros(0)
+        limiting = per_joint.argmax(axis=1) if len(per_joint) else np.zeros(0, dtype=np.int64)
+        return cls(status=status, failed_at=failed_at, q=q, min_times=times, limiting_joint=limiting)
+
 
 def joint_path(ik: ArmIK, poses: ArrayLike, q0: ArrayLike | None = None) -> JointPath:
     """IK through ``poses`` ((n, 4) top-down poses), each solve seeded from the last solution so the arm
@@ -268,8 +279,4 @@ def joint_path(ik: ArmIK, poses: ArrayLike, q0: ArrayLike | None = None) -> Join
         reached.append(result.q)
         q_full = q_full.copy()
         q_full[arm.qpos_adr] = result.q
-    q = np.array(reached).reshape(-1, len(arm.qpos_adr))
-    per_joint = np.abs(np.diff(q, axis=0)) / arm.joint_speed_limits
-    times = per_joint.max(axis=1) if len(per_joint) else np.zeros(0)
-    limiting = per_joint.argmax(axis=1) if len(per_joint) else np.zeros(0, dtype=np.int64)
-    return JointPath(status=status, failed_at=failed, q=q, min_times=times, limiting_joint=limiting)
+    return JointPath.timed(status, failed, np.array(reached), arm.joint_speed_limits)
