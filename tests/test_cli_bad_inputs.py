@@ -301,6 +301,7 @@ CASES: dict[str, Case] = {
     # sim
     "sim-task": Case("sim --task juggling", "juggling"),
     "sim-robot-unknown": Case(f"{S} --robot ur5", "floating, sawyer, panda"),
+    "sim-robot-capitalised": Case(f"{S} --robot Sawyer", "'sawyer'"),
     "sim-object": Case(f"{S} --object spoon", "spoon"),
     "sim-objects-missing": Case(f"{S} --objects @nope --object x", "nope"),
     "sim-objects-file": Case(f"{S} --objects @afile.txt --object x", "afile.txt"),
