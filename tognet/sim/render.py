@@ -58,9 +58,9 @@ class GifRecorder:
         self.camera = mujoco.MjvCamera()
         self.camera.lookat[:] = lookat
         self.camera.distance = distance
-        if azimuth is None:  # from the table's -y side; with an arm there (at y < 0), from the other side
-            has_arm = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "arm_mount") >= 0
-            azimuth = -90.0 if has_arm else 90.0
+        if azimuth is None:  # from the table's -y side (90), unless an arm stands there: then from +y
+            arm = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "arm_mount")
+            azimuth = -90.0 if arm >= 0 and model.body_pos[arm][1] < 0 else 90.0
         self.camera.azimuth = azimuth
         self.camera.elevation = elevation
         self.option = mujoco.MjvOption()
