@@ -145,11 +145,12 @@ def test_the_tool_cut_by_the_image_border_is_planned_on_and_said_so(sim, planner
 def test_a_named_object_by_pixel_or_index_and_the_json_lists_every_one(sim, planner, tmp_path):
     camera = _aim(sim, REALSENSE, 0.8, 20, 2.0)
     image, tool = _photograph(sim, camera, "raycast", extra=(CAN,))
-    uv, _ = camera.project(np.array([[CAN.center[0], CAN.center[1], 0.12]]))
+    can = render_depth(camera, [CAN], table_z=None) < sim.render_depth(camera)  # the can's pixels
     depth = save_depth_png(tmp_path / "d.png", image)
     k = save_intrinsics(tmp_path / "k.json", REALSENSE)
     runner = CliRunner()
     base = ["plan", "--depth", str(depth), "--intrinsics", str(k), "--task", "hammering"]
+    uv, _ = camera.project(np.array([[CAN.center[0], CAN.center[1], 0.12]]))
     for choice in (f"{uv[0, 0]:.0f},{uv[0, 1]:.0f}", "1"):
         out = tmp_path / f"plan-{choice.replace(',', '-')}.json"
         result = runner.invoke(app, [*base, "--object", choice, "--out", str(out)])
@@ -159,7 +160,7 @@ def test_a_named_object_by_pixel_or_index_and_the_json_lists_every_one(sim, plan
         assert [o["index"] for o in plan["objects"]] == [0, 1] and plan["object"]["index"] == 1
         assert plan["object"]["height_m"] == pytest.approx(0.12, abs=0.01)  # the can
         g = plan["grasp"]["pixel"]
-        assert not _on(tool, g) and np.hypot(g[0] - uv[0, 0], g[1] - uv[0, 1]) < 40
+        assert not _on(tool, g) and _on(can, g, radius=0)
     for bad, message in (("7", "no object #7: the image shows 2"), ("5,5", "no object at pixel (5, 5)"),
                          ("left", "--object takes an object's index")):
         result = runner.invoke(app, [*base, "--object", bad])

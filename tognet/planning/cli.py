@@ -53,8 +53,16 @@ def plan_cmd(
     camera_pose: Path | None = typer.Option(
         None, "--camera-pose", help="Camera pose JSON {\"world_from_camera\": 4 x 4} in a frame whose z = 0 "
         "is the table top. Without it the table plane is fitted to the image."),
+    method: str | None = typer.Option(
+        None, "--method", help="The method: any a robot can run (TOG-Net+ActionSearch, TOG-Net, "
+        "Task_Agn+Trained, Task_Ori+Random, Task_Agn+Random, Antipodal+Random; case-insensitive). Default: "
+        "the best whose models are at hand (with the shipped models, TOG-Net+ActionSearch). The Oracle and "
+        "the diagnostic rows need the simulator and are refused."),
     checkpoint: Path | None = typer.Option(
-        None, "--checkpoint", help="TOG-Net checkpoint of the task (default: the shipped model)."),
+        None, "--checkpoint", help="A checkpoint of one of the models the method needs (a task's TOG-Net, "
+        "its action-search model or the grasp-only model; its kind is read from it; one the method does not "
+        "use is refused). The method's other models: the shipped ones. Without --method, the best method "
+        "that uses this kind of model."),
     top: int = typer.Option(3, "--top", min=0, help="Alternatives to report beside the chosen grasp."),
     out: Path | None = typer.Option(None, "--out", help="Write the whole plan here (.json)."),
     overlay: Path | None = typer.Option(None, "--overlay",
@@ -81,8 +89,10 @@ def plan_cmd(
 ) -> None:
     """Plan a task-oriented grasp and the task's motion on one depth image from your own camera.
 
-    Prints the grasp (table, camera and world frames), Q_G, Q_T|G, Q_T, the action, alternatives, timing;
-    with --robot, the arm's trajectory too.
+    Prints the method, the grasp (table, camera and world frames), the method's own scores (Q_G and Q_T|G,a
+    of the chosen action for the action search; Q_G, Q_T|G, Q_T for TOG-Net), the action, alternatives
+    (ranked the method's way), timing, and a low-confidence warning where the method's plans of that score
+    succeeded less often than not on held-out scenes; with --robot, the arm's trajectory too.
     """
     from tognet.planning.camera import load_camera_pose, load_intrinsics
     from tognet.planning.user import UserPlanConfig, UserPlanner
@@ -107,7 +117,7 @@ def plan_cmd(
     k = load_intrinsics(intrinsics)
     pose = load_camera_pose(camera_pose) if camera_pose is not None else None
     image, k, pose = UserPlanner.read_inputs(depth, k, pose)  # every input checked before the model loads
-    planner = UserPlanner(task, checkpoint, cfg, robot=arm)
+    planner = UserPlanner(task, checkpoint, cfg, robot=arm, method=method)
     plan = planner.plan(image, k, pose, reference=reference, object=choice)
     png = None
     if overlay is not None:
@@ -148,8 +158,9 @@ def _print_plan(plan: Any, task: str, out: Path | None) -> None:
     g = plan.grasp
     t = {k_: 1000 * v for k_, v in plan.timing.items()}
     stages = ", ".join(f"{k_} {v:.0f}" for k_, v in t.items() if k_ != "total")
-    typer.echo(f"plan for {task} with {plan.checkpoint}: {plan.candidates} candidates, {plan.evaluated} "
-               f"grasps scored, {t['total']:.0f} ms ({stages})")
+    models = ", ".join(f"{k_} {v}" for k_, v in plan.models.items()) or "no model"
+    typer.echo(f"plan for {task} by {plan.method} ({models}): {plan.candidates} candidates, "
+               f"{t['total']:.0f} ms ({stages})")
     p = plan.plane
     fit = f" ({100 * p.inliers:.0f} % of the pixels on it, rms {1000 * p.rms:.1f} mm)" if p.fitted else ""
     typer.echo(f"table: {'fitted to the image' if p.fitted else 'from the camera pose'}, the camera "
@@ -164,7 +175,7 @@ def _print_plan(plan: Any, task: str, out: Path | None) -> None:
                f"jaw axis {_vec(g.camera_jaw_axis, 3)}")
     if g.world is not None:
         typer.echo(f"grasp, world frame: x y z {_vec(g.world[:3])} m, phi {g.world[3]:.4f} rad")
-    typer.echo(f"scores: Q_T {g.q_t:.3f} = Q_T|G {g.q_t_given_g:.3f} x Q_G {g.q_g:.3f}")
+    typer.echo(f"{g.describe_scores()}; the score is {plan.score}")
     a = g.action
     start = (f"reference + {_vec(g.start_offset, 3)} m" if g.start_position is None else
              f"{_vec(g.start_position, 3)} m ({'world' if g.world is not None else 'table'} frame)")
@@ -172,7 +183,7 @@ def _print_plan(plan: Any, task: str, out: Path | None) -> None:
                f"{g.start_yaw:+.3f} rad")
     for i, alt in enumerate(plan.alternatives, start=2):
         typer.echo(f"  alternative {i}: table {_vec(alt.table[:3])} m, phi {alt.table[3]:.3f}; "
-                   f"Q_T {alt.q_t:.3f} (Q_T|G {alt.q_t_given_g:.3f}, Q_G {alt.q_g:.3f}); "
+                   f"{alt.describe_scores()}; "
                    f"action {_vec(alt.action, 3)}")
     if plan.robot is not None:
         r, c = plan.robot, plan.robot.choice

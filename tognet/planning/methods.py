@@ -82,6 +82,7 @@ class Method:
     name: str
     kind: MethodKind
     needs: tuple[ModelName, ...] = ()
+    score: str = ""
     grasp: Callable[[MethodInputs], GraspPolicy] | None = None
     action: Callable[[MethodInputs], ActionPolicy] | None = None
     planner: Callable[[MethodInputs], Planner] | None = None
@@ -171,16 +172,22 @@ def _oracle_motion(i: MethodInputs) -> ActionPolicy:
 
 
 #: Every method, in the order of the paper's figure (baselines, ours) and the Oracle last.
+_Q_G = "Q_G (the grasp-only model)"
+_Q_T = "Q_T = Q_T|G x Q_G (the task model)"
+_SEARCH = "Q_G x Q_T|G,a of the searched action (the action-search model)"
+_SEEDS = "the share of the search's seeds it won (simulator)"
 METHOD_TABLE: tuple[Method, ...] = (
-    Method("Antipodal+Random", "baseline", (), grasp=_nms_antipodal, action=_random_actions),
-    Method("Task_Agn+Random", "baseline", ("grasp",), grasp=_cem_q_g, action=_random_actions),
-    Method("Task_Agn+Trained", "baseline", ("grasp", "task"), grasp=_cem_q_g, action=_policy_mean),
-    Method("Task_Ori+Random", "baseline", ("task",), grasp=_cem_q_t, action=_random_actions),
-    Method("TOG-Net", "ours", ("task",), grasp=_cem_q_t, action=_policy_mean),
-    Method("TOG-Net+ActionSearch", "ours", ("search",), grasp=_search_grasp, action=_search_action),
-    Method("Oracle", "oracle", (), planner=_oracle),
-    Method("TOG-Net grasp + Oracle motion", "diagnostic", ("task",), grasp=_cem_q_t, action=_oracle_motion),
-    Method("Oracle grasp + TOG-Net motion", "diagnostic", ("task",), grasp=_oracle_grasp,
+    Method("Antipodal+Random", "baseline", (), "the antipodal quality of its NMS mode", grasp=_nms_antipodal,
+           action=_random_actions),
+    Method("Task_Agn+Random", "baseline", ("grasp",), _Q_G, grasp=_cem_q_g, action=_random_actions),
+    Method("Task_Agn+Trained", "baseline", ("grasp", "task"), _Q_G, grasp=_cem_q_g, action=_policy_mean),
+    Method("Task_Ori+Random", "baseline", ("task",), _Q_T, grasp=_cem_q_t, action=_random_actions),
+    Method("TOG-Net", "ours", ("task",), _Q_T, grasp=_cem_q_t, action=_policy_mean),
+    Method("TOG-Net+ActionSearch", "ours", ("search",), _SEARCH, grasp=_search_grasp, action=_search_action),
+    Method("Oracle", "oracle", (), _SEEDS, planner=_oracle),
+    Method("TOG-Net grasp + Oracle motion", "diagnostic", ("task",), _Q_T, grasp=_cem_q_t,
+           action=_oracle_motion),
+    Method("Oracle grasp + TOG-Net motion", "diagnostic", ("task",), _SEEDS, grasp=_oracle_grasp,
            action=_policy_mean),
 )
 #: The method beyond the paper (the paper's own comparison reads without it).
@@ -192,6 +199,31 @@ if METHODS != METHOD_NAMES or DIAGNOSTIC_NAMES != tuple(m.name for m in METHOD_T
     raise ImportError("tognet.planning.method_names must list the method table's names in its order")
 #: Which models each method needs.
 NEEDS: dict[str, tuple[ModelName, ...]] = {m.name: m.needs for m in METHOD_TABLE}
+#: The methods a robot can run (no simulator), best first: by the README evaluation's success on unseen
+#: objects (every task); :func:`default_method` takes the first whose models are there.
+BEST_FIRST: tuple[str, ...] = ("TOG-Net+ActionSearch", "TOG-Net", "Task_Agn+Trained", "Task_Ori+Random",
+                               "Task_Agn+Random", "Antipodal+Random")
+if sorted(BEST_FIRST) != sorted(m.name for m in METHOD_TABLE if not m.uses_sim):
+    raise ImportError("BEST_FIRST must rank every method a robot can run")
+#: What each model a method needs is, in words.
+MODEL_WORDS: dict[str, str] = {"grasp": "the grasp-only model (Q_G)", "task": "a task's TOG-Net model",
+                               "search": "a task's action-search model (task_head='action')"}
+
+
+def robot_method(name: str) -> Method:
+    """The row of a method a robot can run (ValueError for an unknown one, and for the Oracle and the
+    diagnostic rows, which need the simulator)."""
+    row = get_method(name)
+    if row.uses_sim:
+        raise ValueError(f"{row.name} needs the simulator's ground truth ({row.kind}): it cannot plan on a "
+                         f"depth image; methods a robot can run: {', '.join(BEST_FIRST)}")
+    return row
+
+
+def default_method(has_models: Callable[[tuple[ModelName, ...]], bool]) -> str:
+    """The best method a robot can run (:data:`BEST_FIRST`) whose models ``has_models(needs)`` says are
+    there (e.g. shipped for the task)."""
+    return next(name for name in BEST_FIRST if has_models(NEEDS[name]))
 
 
 def get_method(name: str) -> Method:
@@ -261,4 +293,4 @@ def make_planner(method: str | Method, task: Task, *, grasp_model: Any = None, t
     except ValueError as exc:
         raise ValueError(f"{row.name}'s model: {exc}") from None
     return PolicyPlanner(row.name, task, row.grasp(inputs), row.action(inputs), config, crop,
-                         score_model=task_model, reach=reach)
+                         score_model=task_model, reach=reach, models={n: models[n] for n in row.needs})

@@ -47,13 +47,13 @@ def render_plan(plan: UserPlan, depth: NDArray[np.float32], opening: float = 0.0
         cu, cv = grasps[i].pixel * scale
         draw.text((cu + 4, cv + 4), str(i + 1), fill=colour, font=font)
     lines: list[tuple[str, tuple[int, int, int]]] = [
-        (f"TOG-Net plan, {plan.task}: {plan.candidates} candidates, {plan.evaluated} scored, "
+        (f"{plan.method} plan, {plan.task}: {plan.candidates} candidates, "
          f"{1000 * plan.timing.get('total', 0.0):.0f} ms", (255, 255, 255)),
     ]
     for i, g in enumerate(grasps):
         a = g.action
         name = "chosen" if i == 0 else "alternative"
-        lines.append((f"{i + 1} {name}: Q_T {g.q_t:.2f} = Q_T|G {g.q_t_given_g:.2f} x Q_G {g.q_g:.2f}; "
+        lines.append((f"{i + 1} {name}: {g.describe_scores()}; "
                       f"action ({a[0]:+.3f}, {a[1]:+.3f}, {a[2]:+.3f} m, {a[3]:+.2f} rad)",
                       COLOURS[min(i, len(COLOURS) - 1)]))
     p = plan.plane

@@ -25,6 +25,16 @@ class PlanningError(TognetError):
 
 
 @dataclass(frozen=True)
+class Choice:
+    """A grasp and action a planner ranked beside its plan (an alternative), with the method's own scores
+    of it (:attr:`Plan.own`)."""
+
+    grasp: NDArray[np.float64]
+    action: NDArray[np.float64]
+    own: dict[str, float] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
 class Plan:
     """A grasp and an action for one observation, with how they were chosen.
 
@@ -33,6 +43,11 @@ class Plan:
     ``scores``: the numbers the planner chose by (e.g. ``q_t``, ``q_g``, the Oracle's search successes).
     ``timing``: seconds per stage (``depth``, ``candidates``, ``grasp``, ``action``, ``search``...) and
     ``total``. ``info``: anything else worth keeping (sources, the Oracle's search trials).
+    ``own``: the method's own scores of its plan, from the models it uses: ``score`` (what it ranked its
+    grasps by: :attr:`tognet.planning.methods.Method.score`) and its parts (``q_g``, ``q_t_given_g`` or,
+    for the action search, ``q_t_given_ga`` of the chosen action, ``q_t``). ``alternatives``: the
+    method's next grasps, ranked its way, each at least ``PlanConfig.alternatives.radius`` from those
+    before (asked for with ``alternatives=`` by the user path; none in an evaluation).
     """
 
     method: str
@@ -41,6 +56,8 @@ class Plan:
     scores: dict[str, float] = field(default_factory=dict)
     timing: dict[str, float] = field(default_factory=dict)
     info: dict[str, Any] = field(default_factory=dict)
+    own: dict[str, float] = field(default_factory=dict)
+    alternatives: tuple[Choice, ...] = ()
 
     @property
     def grasp_pose(self) -> Grasp:

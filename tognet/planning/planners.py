@@ -10,6 +10,7 @@ ground truth and runs trials in it: an upper bound, not a method a robot could r
 from __future__ import annotations
 
 import copy
+import itertools
 import time
 from collections.abc import Iterator
 from typing import Any
@@ -19,8 +20,9 @@ from numpy.typing import NDArray
 
 from tognet.data.format import ACTION_SOURCES, GRASP_SOURCES
 from tognet.geometry import Grasp
+from tognet.grasping.nms import NMSConfig, angle_difference
 from tognet.planning.config import PlanConfig
-from tognet.planning.plan import Plan, PlanningError
+from tognet.planning.plan import Choice, Plan, PlanningError
 from tognet.planning.reach import ArmReach, Option, Passed, ranked_grasps
 from tognet.policies.grasp import NMSGrasps
 from tognet.policies.view import ActionPick, ActionPolicy, GraspPick, GraspPolicy, SceneView
@@ -51,11 +53,15 @@ def _scene_view(observation: Any, task: Task | None, config: PlanConfig, crop: A
 
 
 class PolicyPlanner:
-    """A grasp policy and an action policy (:mod:`tognet.policies`) on one observation.
+    """A grasp policy and an action policy (:mod:`tognet.policies`) on one observation, in two halves:
+    :meth:`view` (the observation's depth image prepared, its antipodal candidates sampled) and
+    :meth:`plan_view` (the policies on a view). The evaluation calls both (:meth:`plan`); a user's image
+    becomes its view elsewhere (:mod:`tognet.planning.user`: table frame, objects) and takes the second.
 
-    ``score_model``: a model whose prediction at the chosen grasp is reported in ``Plan.scores``
-    (``q_g``, ``q_t_given_g``, ``q_t``: how the task model rates every method's grasp); not counted in
-    ``timing["total"]``, which is the method's own planning time.
+    ``models``: the method's models by what they are ("grasp", "task", "search"), which rate its plan
+    (``Plan.own``: :meth:`rate`). ``score_model``: a model whose prediction at the chosen grasp is reported
+    in ``Plan.scores`` (``q_g``, ``q_t_given_g``, ``q_t``: how the task model rates every method's grasp);
+    not counted in ``timing["total"]``, which is the method's own planning time.
 
     ``reach``: with an arm (:class:`tognet.planning.reach.ArmReach`), the candidates beyond it are dropped
     before the policies see them, and the chosen grasp and action are checked through the whole trial,
@@ -63,8 +69,8 @@ class PolicyPlanner:
     ``reach``)."""
 
     def __init__(self, name: str, task: Task, grasp_policy: GraspPolicy, action_policy: ActionPolicy,
-                 config: PlanConfig, crop: Any, score_model: Any = None, reach: ArmReach | None = None
-                 ) -> None:
+                 config: PlanConfig, crop: Any, score_model: Any = None, reach: ArmReach | None = None,
+                 models: dict[str, Any] | None = None) -> None:
         self.name = name
         self.task = task
         self.grasp_policy = grasp_policy
@@ -73,6 +79,11 @@ class PolicyPlanner:
         self.crop = crop
         self.score_model = score_model
         self.reach = reach
+        self.models = {k: m for k, m in (models or {}).items() if m is not None}
+
+    def view(self, observation: Any, rng: np.random.Generator, timing: dict[str, float]) -> SceneView:
+        """The policies' view of a simulator-like observation (depth, camera): see :func:`_scene_view`."""
+        return _scene_view(observation, self.task, self.config, self.crop, rng, timing, self.reach)
 
     def plan(self, observation: Any, rng: np.random.Generator) -> Plan:
         """One grasp and action for ``observation`` (PlanningError when there is no candidate; its
@@ -80,44 +91,119 @@ class PolicyPlanner:
         timing: dict[str, float] = {}
         t0 = time.perf_counter()
         rng_start = copy.deepcopy(rng)
-        view = _scene_view(observation, self.task, self.config, self.crop, rng, timing, self.reach)
+        view = self.view(observation, rng, timing)
         view.cache.update(observation=observation, rng_start=rng_start)  # for the diagnostic OracleGrasp
+        return self.plan_view(view, rng, reference=getattr(observation, "reference", None), timing=timing,
+                              t0=t0)
+
+    def plan_view(self, view: SceneView, rng: np.random.Generator, *, reference: Any = None,
+                  alternatives: int = 0, spacing: NMSConfig | None = None, reach: Any = None,
+                  timing: dict[str, float] | None = None, t0: float | None = None) -> Plan:
+        """The policies' grasp and action on ``view`` (its candidates already within the arm's reach, what
+        was dropped in ``view.cache["reach_dropped"]``), rated by the method's models (``Plan.own``).
+
+        ``reference``: the task's reference point, for the arm's check of the task's steps. ``alternatives``:
+        also the method's next ``alternatives`` grasps, ranked its way, each at least ``spacing`` from those
+        before (default 3 cm, either jaw orientation its own grasp), with their actions. ``reach``: the
+        arm's filter to use instead of the planner's own (a user's, in the image's frame)."""
+        timing = {} if timing is None else timing
+        t0 = time.perf_counter() if t0 is None else t0
+        reach = self.reach if reach is None else reach
         t1 = time.perf_counter()
         pick = self.grasp_policy(view, 1, rng)
         t2 = time.perf_counter()
         acts = self.action_policy(view, pick.grasps, rng)
         t3 = time.perf_counter()
-        timing.update(grasp=t2 - t1, action=t3 - t2, total=t3 - t0)
+        timing.update(grasp=t2 - t1, action=t3 - t2)
         grasp, action = pick.grasps[0].astype(np.float64), acts.actions[0].astype(np.float64)
-        choice, sources = float(pick.score[0]), (int(pick.source[0]), int(acts.source[0]))
+        first = (float(pick.score[0]), (int(pick.source[0]), int(acts.source[0])))
+        options = self._options(view, Option(grasp, lambda: (action, first)), rng, alternatives, spacing,
+                                reach)
         info: dict[str, Any] = {}
-        if self.reach is not None:
-            first = (choice, sources)
-            options = self._options(view, grasp, lambda: (action, first), rng)
-            chosen = self.reach.choose(options, observation.reference, view.cache["reach_dropped"])[0]
-            grasp, action, (choice, sources) = chosen.grasp, chosen.action, chosen.extra
-            info["reach"] = chosen.info()
-            timing["reach"] += chosen.seconds
-            timing["total"] = time.perf_counter() - t0
+        if reach is not None:
+            found = reach.choose(options, reference, view.cache["reach_dropped"], want=1 + alternatives)
+            info["reach"], info["reach_choices"] = found[0].info(), found
+            chosen = [(c.grasp, c.action, c.extra) for c in found]
+        else:
+            chosen = [(o.grasp, *o.action()) for o in itertools.islice(options, 1 + alternatives)]
+        t4 = time.perf_counter()
+        if reach is not None:
+            timing["reach"] = timing.get("reach", 0.0) + t4 - t3
+        elif alternatives:
+            timing["alternatives"] = t4 - t3
+        grasps = np.array([c[0] for c in chosen], dtype=np.float64)
+        actions = np.array([c[1] for c in chosen], dtype=np.float64)
+        own = self.rate(view, grasps, actions, [c[2][0] for c in chosen])
+        t5 = time.perf_counter()
+        timing.update(rate=t5 - t4, total=t5 - t0)
+        (choice, sources) = chosen[0][2]
+        return Plan(self.name, grasps[0], actions[0], self._scores(view, grasps[0], choice), timing,
+                    {"candidates": len(view.candidates), "grasp_source": sources[0],
+                     "action_source": sources[1], **info}, own[0],
+                    tuple(Choice(g, a, o) for g, a, o in zip(grasps[1:], actions[1:], own[1:], strict=True)))
+
+    def _scores(self, view: SceneView, grasp: NDArray[np.float64], choice: float) -> dict[str, float]:
+        """``Plan.scores``: the policy's choice score, and the score model's rating of the grasp
+        (diagnostics, not part of the method nor of its time)."""
         scores = {"choice": choice}
-        if self.score_model is not None:  # diagnostics, not part of the method (nor of its time)
+        if self.score_model is not None:
             crops, z = view.crops(grasp[None])
             pred = self.score_model.predict(crops, z)
             scores.update(q_g=float(pred.q_g[0]), q_t_given_g=float(pred.q_t_given_g[0]),
                           q_t=float(pred.q_t[0]))
-        return Plan(self.name, grasp, action, scores, timing,
-                    {"candidates": len(view.candidates), "grasp_source": sources[0],
-                     "action_source": sources[1], **info})
+        return scores
 
-    def _options(self, view: SceneView, grasp: NDArray[np.float64], first: Any, rng: np.random.Generator
-                 ) -> Iterator[Option]:
-        """The policy's choice, then (asked for only when it is out of reach) its next grasps, each with
-        the action policy's action for it."""
-        yield Option(grasp, first)
-        assert self.reach is not None
-        ranked = ranked_grasps(self.grasp_policy, view, rng, self.reach.config.tries + 1)
-        for g, score, source in zip(ranked.grasps, ranked.score, ranked.source, strict=True):
-            def action(g: NDArray[np.float64] = g, score: float = float(score), source: int = int(source)
+    def rate(self, view: SceneView, grasps: NDArray[np.float64], actions: NDArray[np.float64],
+             choices: list[float]) -> list[dict[str, float]]:
+        """The method's own scores of (grasp, action) pairs: ``score`` (the grasp policy's, ``choices``)
+        and its parts from the method's models: the action-search model's Q_G and Q_T|G,a of the action
+        (``q_t_given_ga``), else the task model's Q_G, Q_T|G and Q_T, else the grasp-only model's Q_G."""
+        out: list[dict[str, float]] = [{"score": float(c)} for c in choices]
+        if len(grasps) == 0 or not self.models:
+            return out
+        crops, z = view.crops(grasps)
+        if "search" in self.models:
+            model = self.models["search"]
+            enc = model.encode(crops, z)
+            q_tga = model.score_actions(enc, actions[:, None, :]).success[:, 0]
+            parts = {"q_g": enc.q_g, "q_t_given_ga": q_tga, "q_t": enc.q_g * q_tga}
+        elif "task" in self.models:
+            pred = self.models["task"].predict(crops, z)
+            parts = {"q_g": pred.q_g, "q_t_given_g": pred.q_t_given_g, "q_t": pred.q_t}
+        else:
+            parts = {"q_g": self.models["grasp"].predict(crops, z).q_g}
+        for i, row in enumerate(out):
+            row.update({k: float(v[i]) for k, v in parts.items()})
+        return out
+
+    def _options(self, view: SceneView, first: Option, rng: np.random.Generator, alternatives: int,
+                 spacing: NMSConfig | None, reach: Any) -> Iterator[Option]:
+        """The policy's choice, then (asked for only when it is out of reach or alternatives are wanted)
+        its next grasps, each with the action policy's action for it; with ``alternatives``, each at least
+        ``spacing`` from those before."""
+        yield first
+        if reach is None and not alternatives:
+            return
+        tries = reach.config.tries if reach is not None else 0
+        ranked = ranked_grasps(self.grasp_policy, view, rng, tries + 1 + alternatives)
+        keep = np.ones(len(ranked.grasps), dtype=bool)
+        if alternatives:
+            keep = _spaced(first.grasp, ranked.grasps, spacing or ALTERNATIVES)
+        rows = np.flatnonzero(keep)
+        if reach is None:  # the alternatives' actions in one batch
+            rows = rows[:alternatives]
+            if len(rows) == 0:
+                return
+            acts = self.action_policy(view, ranked.grasps[rows].astype(np.float64), rng)
+            for j, i in enumerate(rows):
+                extra = (float(ranked.score[i]), (int(ranked.source[i]), int(acts.source[j])))
+                yield Option(ranked.grasps[i].astype(np.float64),
+                             lambda a=acts.actions[j].astype(np.float64), e=extra: (a, e))
+            return
+        for i in rows:
+            g, score, source = ranked.grasps[i], float(ranked.score[i]), int(ranked.source[i])
+
+            def action(g: NDArray[np.float64] = g, score: float = score, source: int = source
                        ) -> tuple[NDArray[np.float64], Any]:
                 acts = self.action_policy(view, g[None].astype(np.float64), rng)
                 return acts.actions[0].astype(np.float64), (score, (source, int(acts.source[0])))
@@ -125,6 +211,30 @@ class PolicyPlanner:
             yield Option(g.astype(np.float64), action)
 
     __call__ = plan
+
+
+#: Alternatives' default spacing: 3 cm (and NMS's angle scale), either jaw orientation its own grasp (the
+#: task cares which way round the tool is held).
+ALTERNATIVES = NMSConfig(radius=0.03, symmetric_jaw=False)
+
+
+def _spaced(first: NDArray[np.float64], grasps: NDArray[np.float64], config: NMSConfig) -> NDArray[np.bool_]:
+    """Which of ``grasps`` (in order) are each at least ``config.radius`` (NMS's distance) from ``first``
+    and from those kept before them: greedy, one pass per kept grasp."""
+    period = np.pi if config.symmetric_jaw else 2 * np.pi
+    alive = np.ones(len(grasps), dtype=bool)
+    keep = np.zeros(len(grasps), dtype=bool)
+    anchor: NDArray[np.float64] | None = np.asarray(first, dtype=np.float64)
+    while anchor is not None:
+        dp = grasps[:, :3] - anchor[:3]
+        da = angle_difference(grasps[:, 3], anchor[3], period) * config.angle_scale
+        alive &= np.einsum("ij,ij->i", dp, dp) + da * da >= config.radius**2
+        left = np.flatnonzero(alive & ~keep)
+        anchor = None
+        if left.size:
+            keep[left[0]] = True
+            anchor = grasps[left[0]].astype(np.float64)
+    return keep
 
 
 class OracleSearch:

@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -453,6 +453,48 @@ class ArmReach:
             parts.append(head + ", ".join(items)
                          + (f" (ReachConfig.tries = {self.config.tries})" if exhausted else ""))
         return f"no grasp within the {self.name}'s reach ({self.describe_base()}): " + "; ".join(parts)
+
+
+class FramedReach:
+    """An :class:`ArmReach` for grasps given in another frame than its base's (a user's image: grasps in
+    the plan's table frame, the arm's base and the reference point in the camera pose's world frame).
+    ``frame_from_plan``: the 4 x 4 rigid transform from the grasps' frame to the base's (identity: the
+    same frame). Grasps go in and come out in the plan's frame; the trajectories are in the base's."""
+
+    def __init__(self, reach: ArmReach, frame_from_plan: NDArray[np.float64]) -> None:
+        self.reach = reach
+        self.frame_from_plan = np.asarray(frame_from_plan, dtype=np.float64)
+        self.config, self.name = reach.config, reach.name
+
+    def to_frame(self, grasps: ArrayLike) -> NDArray[np.float64]:
+        """Grasps (N, 4) of the plan's frame in the base's (position moved, the jaw axis' yaw turned)."""
+        g = np.asarray(grasps, dtype=np.float64).reshape(-1, 4)
+        t = self.frame_from_plan
+        p = g[:, :3] @ t[:3, :3].T + t[:3, 3]
+        jaw = np.stack([np.cos(g[:, 3]), np.sin(g[:, 3]), np.zeros(len(g))], axis=1) @ t[:3, :3].T
+        return np.column_stack([p, np.mod(np.arctan2(jaw[:, 1], jaw[:, 0]), 2 * np.pi)])
+
+    def filter(self, candidates: GraspCandidates) -> tuple[GraspCandidates, Dropped]:
+        """:meth:`ArmReach.filter` of candidates in the plan's frame."""
+        keep, dropped = self.reach.keep(self.to_frame(candidates.grasps))
+        if keep.all():
+            return candidates, dropped
+        return candidates.subset(np.flatnonzero(keep)), dropped
+
+    def choose(self, options: Iterable[Option], reference: ArrayLike | None, dropped: Dropped,
+               want: int = 1) -> list[ReachChoice]:
+        """:meth:`ArmReach.choose` of options in the plan's frame (``reference`` in the base's); the
+        choices' grasps in the plan's frame."""
+        def moved(o: Option) -> Option:
+            def action() -> tuple[NDArray[np.float64], Any]:
+                a, extra = o.action()
+                return a, (o.grasp, extra)
+
+            return Option(self.to_frame(o.grasp)[0], action)
+
+        found = self.reach.choose((moved(o) for o in options), reference, dropped, want)
+        return [replace(c, grasp=np.asarray(c.extra[0], dtype=np.float64).copy(), extra=c.extra[1])
+                for c in found]
 
 
 def reach_of(sim_config: Any, task: Any, config: ReachConfig | None = None) -> ArmReach | None:

@@ -20,23 +20,33 @@ from tognet.tasks import Task
 
 @dataclass
 class SceneView:
-    """One observation as the policies see it, with a cache shared between them."""
+    """One observation as the policies see it, with a cache shared between them.
+
+    ``network_height``: None (the simulator's observations): the network's gripper depth z is the grasp
+    centre's depth from the image's own camera. A height (m) above the table (a user's camera, anywhere and
+    tilted any way): z is the grasp centre's depth from a camera looking straight down from there, the
+    training camera's, so that the network gets the z it was trained on."""
 
     scene: DepthScene
     candidates: GraspCandidates
     task: Task | None
     crop: CropConfig
     cache: dict[str, Any] = field(default_factory=dict)
+    network_height: float | None = None
 
     def crops(self, grasps: NDArray[np.float64]) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
-        """The network inputs of world grasps: crops (N, S, S) and gripper depths z (N,)."""
+        """The network inputs of grasps (the scene's frame): crops (N, S, S) and gripper depths z (N,)."""
         crops = extract_crops(self.scene, None, grasps, self.crop)
-        return crops, grasp_depths(self.scene.camera, grasps).astype(np.float32)
+        if self.network_height is None:
+            return crops, grasp_depths(self.scene.camera, grasps).astype(np.float32)
+        z = self.network_height - np.asarray(grasps, dtype=np.float64).reshape(-1, 4)[:, 2]
+        return crops, z.astype(np.float32)
 
 
 @dataclass(frozen=True)
 class GraspPick:
-    """Grasps chosen by a grasp policy: (n, 4) world grasps, their source code and the score used."""
+    """Grasps chosen by a grasp policy: (n, 4) world grasps, their source code and the score used (the
+    policy's own: what it ranks grasps by)."""
 
     grasps: NDArray[np.float64]
     source: NDArray[np.int8]
