@@ -1,15 +1,22 @@
 """The user's path, closed in the loop: ``tognet.plan`` on a depth image from a camera unlike the simulator's,
-carried out in the simulator, against the evaluation's TOG-Net on the same scenes (issue 23).
+carried out in the simulator, against the evaluation's planner of the same method on the same scenes
+(issues 23 and 30).
 
-    .venv/bin/python benchmarks/closed_loop_plan.py [--tasks all] [--scenes 150] [--workers 2]
-                                                    [--out /tmp/tognet-closed-loop] [--no-stages]
+    .venv/bin/python benchmarks/closed_loop_plan.py [--method TOG-Net+ActionSearch] [--tasks all]
+                        [--scenes 150] [--workers 2] [--out /tmp/tognet-closed-loop] [--no-stages]
+
+``--method``: any method a robot can run, with the shipped models (default the action search, what
+``tognet plan`` runs by default); the user path and the evaluation run the same one. Besides success it
+records each user plan's own score and whether it warned of low confidence, and prints the share of
+successes and of failures that warned (the threshold: ``tognet/models/confidence.json``).
 
 The scenes are the evaluation's own (``tognet evaluate``'s default settings): per task, ``--scenes / 3`` per
 category (PG-Primitive, PG-Complex, Realistic), the test objects and scene seeds of the evaluation's first
 jobs (:func:`tognet.evaluate.jobs.plan_eval_jobs`). On each scene:
 
-1. **TOG-Net** (the evaluation's): plans on the simulator's observation (its overhead Kinect2-like camera,
-   the ray caster of :mod:`tognet.sim.depth`, camera pose known) and is executed (trial seed 0).
+1. **the evaluation's** planner of the method: plans on the simulator's observation (its overhead
+   Kinect2-like camera, the ray caster of :mod:`tognet.sim.depth`, camera pose known) and is executed
+   (trial seed 0).
 2. **user**: a user's camera photographs the same settled scene: a RealSense D435, Azure Kinect (NFOV) or
    Kinect2's intrinsics, 0.5-1.0 m from a point within 4 cm of the tool's centre, tilted 0-30 degrees from
    straight down towards any side and rolled any way; MuJoCo's OpenGL renderer draws it
@@ -90,8 +97,8 @@ def _execute(sim: Any, grasp: np.ndarray, action: np.ndarray, seed: int) -> dict
             "task_success": bool(r.task_success), "failure": r.failure.value}
 
 
-def _user_trial(sim: Any, task: str, depth: np.ndarray, camera: Any, pose: np.ndarray | None, seed: int,
-                tool: np.ndarray | None = None) -> dict[str, Any]:
+def _user_trial(sim: Any, task: str, method: str, depth: np.ndarray, camera: Any, pose: np.ndarray | None,
+                seed: int, tool: np.ndarray | None = None) -> dict[str, Any]:
     """``tognet.plan`` on ``depth`` (metres, NaN holes) handed over as integer millimetres, with the
     intrinsics (and ``pose`` if given), executed in ``sim``; with ``tool`` (the tool's pixels), whether
     the plan was made on the tool."""
@@ -102,11 +109,13 @@ def _user_trial(sim: Any, task: str, depth: np.ndarray, camera: Any, pose: np.nd
     mm = np.where(np.isfinite(depth), np.rint(depth * 1000.0), 0).astype(np.uint16)
     t0 = time.perf_counter()
     try:
-        plan = tognet.plan(mm, intrinsics_dict(camera.intrinsics), task=task, camera_pose=pose)
+        plan = tognet.plan(mm, intrinsics_dict(camera.intrinsics), task=task, camera_pose=pose, method=method)
     except TognetError as exc:
         return {"planned": False, "error": str(exc), "valid": True, "grasp_success": False,
                 "task_success": False, "failure": "no_plan", "plan_s": time.perf_counter() - t0}
     out: dict[str, Any] = {"planned": True, "plan_s": time.perf_counter() - t0, "q_t": plan.grasp.q_t,
+                           "score": plan.grasp.score, "timing": plan.timing,
+                           "low_confidence": any(w.startswith("low confidence") for w in plan.warnings),
                            "objects": len(plan.objects),
                            "qualifying": sum(o["qualifies"] for o in plan.objects),
                            "object": {k: plan.object[k] for k in ("index", "area_cm2", "height_m", "pixel",
@@ -127,21 +136,27 @@ def _user_trial(sim: Any, task: str, depth: np.ndarray, camera: Any, pose: np.nd
     return out
 
 
-def run_job(job: Any, stages: bool) -> list[dict[str, Any]]:
-    """Every scene of one evaluation job: TOG-Net, the user path and (``stages``) the stage variants."""
+def _shipped(kind: str, task: str) -> str:
+    from tognet.models import default_checkpoint
+
+    return str(default_checkpoint({"grasp": "grasping", "task": task, "search": f"{task}_search"}[kind]))
+
+
+def run_job(job: Any, stages: bool, method: str) -> list[dict[str, Any]]:
+    """Every scene of one evaluation job: the evaluation's planner of ``method``, the user path and
+    (``stages``) the stage variants."""
     import torch
 
     torch.set_num_threads(1)
     from tognet.jobs.models import load_model
     from tognet.jobs.scenes import reset_scene
-    from tognet.models import default_checkpoint
-    from tognet.planning import PlanningError, make_planner
+    from tognet.planning import NEEDS, PlanningError, make_planner
     from tognet.sim import Simulator
     from tognet.sim.glcamera import GLDepthCamera, SensorModel, no_return_below
 
     sim = Simulator(job.config.sim, job.task, job.obj)
-    model = load_model(str(default_checkpoint(job.task)))
-    tognet_planner = make_planner("TOG-Net", sim.task, task_model=model, config=job.config.plan)
+    models = {f"{k}_model": load_model(_shipped(k, job.task)) for k in NEEDS[method]}
+    tognet_planner = make_planner(method, sim.task, config=job.config.plan, **models)
     gl = GLDepthCamera(sim.model)
     tool_geom = sim.model.geom("object_visual").id
     records = []
@@ -153,10 +168,11 @@ def run_job(job: Any, stages: bool) -> list[dict[str, Any]]:
             if obs is None:
                 continue
             rec: dict[str, Any] = {"task": job.task, "category": job.category, "job": job.index, "scene": s,
-                                   "object_id": job.obj.object_id, "scene_seed": scene_seed}
+                                   "object_id": job.obj.object_id, "scene_seed": scene_seed, "method": method}
             try:
                 plan = tognet_planner(obs, np.random.default_rng(job.seed(s, 2)))
                 rec["tognet"] = _execute(sim, plan.grasp, plan.action, job.config.trial_seed)
+                rec["tognet"].update(score=plan.own.get("score"), plan_s=plan.timing["total"])
             except PlanningError:
                 rec["tognet"] = {"valid": True, "grasp_success": False, "task_success": False,
                                  "failure": "no_grasp"}
@@ -176,19 +192,20 @@ def run_job(job: Any, stages: bool) -> list[dict[str, Any]]:
                                                or tool[:, -1].any()),
                        **{k: round(v, 4) for k, v in draw.items()})
             seed = job.config.trial_seed
-            rec["user"] = _user_trial(sim, job.task, image, camera, None, seed, tool)
+            rec["user"] = _user_trial(sim, job.task, method, image, camera, None, seed, tool)
             if stages:
-                rec["pose"] = _user_trial(sim, job.task, image, camera, camera.pose, seed, tool)
-                rec["clean"] = _user_trial(sim, job.task, clean, camera, None, seed, tool)
-                rec["simcam"] = _user_trial(sim, job.task, obs.depth, obs.camera, None, seed)
-                rec["simcam+pose"] = _user_trial(sim, job.task, obs.depth, obs.camera, obs.camera.pose, seed)
+                rec["pose"] = _user_trial(sim, job.task, method, image, camera, camera.pose, seed, tool)
+                rec["clean"] = _user_trial(sim, job.task, method, clean, camera, None, seed, tool)
+                rec["simcam"] = _user_trial(sim, job.task, method, obs.depth, obs.camera, None, seed)
+                rec["simcam+pose"] = _user_trial(sim, job.task, method, obs.depth, obs.camera,
+                                                 obs.camera.pose, seed)
             records.append(rec)
     finally:
         gl.close()
     return records
 
 
-def _jobs(tasks: list[str], scenes: int, work: Path) -> list[Any]:
+def _jobs(tasks: list[str], scenes: int, work: Path, method: str) -> list[Any]:
     from tognet.evaluate.config import CATEGORIES, EvalConfig
     from tognet.evaluate.harness import test_objects
     from tognet.evaluate.jobs import plan_eval_jobs
@@ -200,7 +217,7 @@ def _jobs(tasks: list[str], scenes: int, work: Path) -> list[Any]:
     for cat in CATEGORIES:
         objects = test_objects(cat, n_objects, work, progress=False, log=lambda s: print(s, flush=True))
         for task in tasks:
-            jobs += plan_eval_jobs(task, cat, objects, per_cat, ("TOG-Net",), config)
+            jobs += plan_eval_jobs(task, cat, objects, per_cat, (method,), config)
     return jobs
 
 
@@ -209,14 +226,35 @@ def _rate(records: list[dict[str, Any]], key: str) -> tuple[int, int]:
     return sum(r[key]["task_success"] for r in valid), len(valid)
 
 
+def _warned(rs: list[dict[str, Any]], task: str, method: str) -> str:
+    """'w / n, w / n': user plans that warn of low confidence among the successes and the failures, by the
+    plans' scores against today's calibrated threshold (tognet/models/confidence.json; what the plan said
+    when it ran is in its record too)."""
+    from tognet.planning import NEEDS
+    from tognet.planning.confidence import threshold
+
+    entry = threshold(task, method, {k: _shipped(k, task) for k in NEEDS[method]})
+    limit = None if entry is None else entry.get("warn_below")
+
+    def warns(r: dict[str, Any]) -> bool:
+        return limit == "always" or (limit is not None and r["user"]["score"] < float(limit))
+
+    planned = [r for r in rs if r["user"]["planned"]]
+    wins = [r for r in planned if r["user"]["task_success"]]
+    losses = [r for r in planned if not r["user"]["task_success"]]
+    return (f"{sum(map(warns, wins))} / {len(wins)}, {sum(map(warns, losses))} / {len(losses)}"
+            + (" (no threshold)" if entry is None else ""))
+
+
 def summarise(records: list[dict[str, Any]], tasks: list[str]) -> str:
     """The markdown table per task and the stage diagnostics."""
     from tognet.evaluate.stats import paired_difference, wilson
 
-    lines = ["| task | scenes | TOG-Net (simulator's camera) | tognet.plan, image + intrinsics only | "
-             "difference [95 %] | no plan | planned on the tool | "
+    method = records[0].get("method", "TOG-Net") if records else "TOG-Net"
+    lines = [f"| task | scenes | {method}, evaluation (simulator's camera) | tognet.plan, image + intrinsics "
+             "only | difference [95 %] | no plan | planned on the tool | warned: successes / failures | "
              + " | ".join(f"{s}" for s in STAGES) + " |",
-             "| --- | --- | --- | --- | --- | --- | --- | " + " | ".join("---" for _ in STAGES) + " |"]
+             "| --- | --- | --- | --- | --- | --- | --- | --- | " + " | ".join("---" for _ in STAGES) + " |"]
     notes = []
     for task in tasks:
         rs = [r for r in records if r["task"] == task and r["tognet"]["valid"] and r["user"]["valid"]]
@@ -229,6 +267,7 @@ def summarise(records: list[dict[str, Any]], tasks: list[str]) -> str:
         no_plan = sum(not r["user"]["planned"] for r in rs)
         on_tool = sum(r["user"].get("grasp_on_tool", False) for r in rs if r["user"]["planned"])
         planned = len(rs) - no_plan
+        warned = _warned(rs, task, method)
         cells = []
         for st in STAGES:
             have = [r for r in rs if st in r and r[st]["valid"]]
@@ -241,7 +280,7 @@ def summarise(records: list[dict[str, Any]], tasks: list[str]) -> str:
                 cells.append("-")
         lines.append(f"| {task} | {len(rs)} | {100 * t.mean():.1f} | {100 * u.mean():.1f} [{100 * lo:.1f}, "
                      f"{100 * hi:.1f}] | {100 * d['difference']:+.1f} [{100 * d['ci'][0]:+.1f}, "
-                     f"{100 * d['ci'][1]:+.1f}] | {no_plan} | {on_tool} / {planned} | "
+                     f"{100 * d['ci'][1]:+.1f}] | {no_plan} | {on_tool} / {planned} | {warned} | "
                      + " | ".join(cells) + " |")
         errors = Counter(r["user"]["error"].split(":")[0] for r in rs if not r["user"]["planned"])
         fails = Counter(r["user"]["failure"] for r in rs if not r["user"]["task_success"])
@@ -269,6 +308,8 @@ def summarise(records: list[dict[str, Any]], tasks: list[str]) -> str:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--method", default="TOG-Net+ActionSearch",
+                    help="a method a robot can run (with the shipped models)")
     ap.add_argument("--tasks", default="all", help="comma-separated task names, or all")
     ap.add_argument("--scenes", type=int, default=150, help="scenes per task (a third per category)")
     ap.add_argument("--workers", type=int, default=2)
@@ -284,19 +325,20 @@ def main() -> None:
     done = {(r["task"], r["category"], r["job"]) for r in records}
     print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} cpus, load average "
           f"{os.getloadavg()[0]:.2f}; {args.workers} workers", flush=True)
-    jobs = [j for j in _jobs(tasks, args.scenes, args.out) if (j.task, j.category, j.index) not in done]
+    jobs = [j for j in _jobs(tasks, args.scenes, args.out, args.method)
+            if (j.task, j.category, j.index) not in done]
     print(f"{len(jobs)} jobs to run ({len(done)} done)", flush=True)
     t0 = time.perf_counter()
     with open(path, "a") as fh:
         if args.workers <= 1:
             for i, job in enumerate(jobs):
-                for r in run_job(job, not args.no_stages):
+                for r in run_job(job, not args.no_stages, args.method):
                     fh.write(json.dumps(r) + "\n")
                 fh.flush()
                 print(f"{i + 1}/{len(jobs)} {time.perf_counter() - t0:.0f} s", flush=True)
         else:
             with ProcessPoolExecutor(args.workers, mp_context=get_context("spawn")) as pool:
-                futures = [pool.submit(run_job, job, not args.no_stages) for job in jobs]
+                futures = [pool.submit(run_job, job, not args.no_stages, args.method) for job in jobs]
                 for i, fut in enumerate(as_completed(futures)):
                     for r in fut.result():
                         fh.write(json.dumps(r) + "\n")
