@@ -274,3 +274,20 @@ def test_tognet_plan_without_a_reference_checks_the_grasp_and_says_so(image):
     assert [s["step"] for s in robot["trajectory"]] == ["the approach", "the grasp", "the lift"]
     assert not robot["with_task"] and robot["base"]["position"] == [-0.2, 0.45, 0.0]  # the Panda's own
     assert "without a reference point (--reference)" in run.output
+
+
+@pytest.mark.parametrize("method", ["TOG-Net", "Task_Agn+Trained", "Task_Ori+Random", "Task_Agn+Random",
+                                    "Antipodal+Random", "TOG-Net+ActionSearch"])
+def test_tognet_plan_with_a_robot_works_with_every_method(image, method):
+    """Every method a robot can run plans for the arm: the joints of the grasp's waypoint put the TCP on the
+    plan's world grasp, and the whole trial was checked (the task's steps with the reference point)."""
+    out = image["root"] / f"plan-{method}.json"
+    run = _plan_cli(image, "--robot", "sawyer", "--reference", 0.3, 0.05, 0.045, "--method", method, "--out",
+                    out)  # the Sawyer's own base, across the table
+    assert run.exit_code == 0, run.output
+    plan = json.loads(out.read_text())
+    assert plan["method"] == method and plan["robot"]["with_task"]
+    steps = plan["robot"]["trajectory"]
+    g = plan["grasp"]["world"]
+    tcp, yaw, _ = _fk(_reach("sawyer", (-0.2, 0.6, 0.0), -math.pi / 2), steps[1]["q"])
+    assert np.linalg.norm(tcp - np.array([g["x"], g["y"], g["z"]])) < 0.002 and _angle(yaw, g["phi"]) < 0.01

@@ -252,7 +252,8 @@ def test_the_one_call_api_and_a_low_score_warning(checkpoints, observation):
                        checkpoint=checkpoints[TASK], config=UserPlanConfig(low_score=1.0), top=1,
                        reference=(0.3, -0.1, 0.045), camera_pose=obs.camera.pose)
     assert len(plan.alternatives) == 1
-    assert any("low confidence: the plan's score" in w and "below the low_score 1" in w for w in plan.warnings)
+    assert any("low confidence: the plan's score" in w and "below the low_score 1" in w
+               for w in plan.warnings)
     from tognet.tasks import get_task
 
     cfg = get_task(TASK).config

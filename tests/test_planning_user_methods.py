@@ -110,7 +110,8 @@ def test_methods_that_cannot_plan_and_models_of_another_kind_are_refused(args, e
     obs = observation
     d = save_depth_png(tmp_path / "d.png", obs.depth)
     k = save_intrinsics(tmp_path / "k.json", obs.camera.intrinsics)
-    result = _cli("plan", "--depth", d, "--intrinsics", k, "--task", TASK, "--out", tmp_path / "p.json", *args)
+    result = _cli("plan", "--depth", d, "--intrinsics", k, "--task", TASK, "--out", tmp_path / "p.json",
+                  *args)
     assert result.exit_code == 2, result.output
     lines = [line for line in result.output.strip().splitlines() if line.strip()]
     assert len(lines) == 1 and lines[0].startswith("error: ") and expect in lines[0].lower(), result.output
