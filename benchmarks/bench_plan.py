@@ -111,7 +111,7 @@ def main() -> None:
     ap.add_argument("--robot", choices=["sawyer", "panda"], default=None,
                     help="plan for this arm (camera pose and reference point given)")
     args = ap.parse_args()
-    from tognet.cliutil import task_list
+    from tognet.cli.util import task_list
     from tognet.model.runtime import set_threads
     from tognet.planning.methods import BEST_FIRST, check_methods
     from tognet.planning.user import UserPlanConfig, UserPlanner

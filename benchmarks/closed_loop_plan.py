@@ -316,7 +316,7 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=Path("/tmp/tognet-closed-loop"))
     ap.add_argument("--no-stages", action="store_true", help="only TOG-Net and the user path")
     args = ap.parse_args()
-    from tognet.cliutil import task_list
+    from tognet.cli.util import task_list
 
     tasks = task_list(args.tasks)
     args.out.mkdir(parents=True, exist_ok=True)

@@ -4,7 +4,7 @@ from pathlib import Path
 
 import pytest
 
-from tognet.cliutil import task_list, task_models
+from tognet.cli.util import task_list, task_models
 from tognet.tasks import TASK_NAMES
 
 

@@ -3,7 +3,7 @@
     from tognet.evaluate import run_evaluation
     results = run_evaluation("runs/eval", ["sweeping", "hammering"], "all", episodes=300)
 
-``tognet evaluate`` is the command (:mod:`tognet.evaluate.cli`); :func:`run_demo` the small run
+``tognet evaluate`` is the command (:mod:`tognet.cli.evaluate`); :func:`run_demo` the small run
 ``make run`` shows.
 """
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from tognet.cliutil import check_disk, check_memory, out_folder, user_errors
+from tognet.cli.util import check_disk, check_memory, out_folder, user_errors
 
 #: Disk bytes of one synthetic episode (a noisy float16 crop compresses little: ~6 kB measured).
 SYNTHETIC_BYTES = 5e3

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from tognet.cliutil import check_disk, check_memory, out_file, out_folder, positive, user_errors
+from tognet.cli.util import check_disk, check_memory, out_file, out_folder, positive, user_errors
 
 objects_app = typer.Typer(
     name="objects",

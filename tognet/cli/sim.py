@@ -9,7 +9,7 @@ from typing import Any
 
 import typer
 
-from tognet.cliutil import ROBOT_HELP, out_file, robot_config, user_errors
+from tognet.cli.util import ROBOT_HELP, out_file, robot_config, user_errors
 from tognet.tasks import DEFAULT_TASK, GRASP_ONLY, SIM_TASKS, TASK_NAMES, get_props, get_task
 
 

@@ -7,7 +7,7 @@ from typing import Any
 
 import typer
 
-from tognet.cliutil import (
+from tognet.cli.util import (
     RAY_ADDRESS_HELP,
     RAY_HELP,
     ROBOT_HELP,
@@ -30,7 +30,7 @@ JOB_BYTES = 1000.0
 def check_pipeline_size(cfg: Any, preset: str, tasks: list[str], out: Path) -> None:
     """Refuse a preset whose objects and rounds cannot fit on the disk of ``out`` or in memory, before
     anything is generated: the reason names the preset's numbers."""
-    from tognet.objects.cli import OBJECT_BYTES, RECORD_BYTES
+    from tognet.cli.objects import OBJECT_BYTES, RECORD_BYTES
 
     objects = sum(cfg.objects.values())
     label = f"--preset {preset}: {objects} objects"

@@ -8,7 +8,7 @@ from typing import Any
 
 import typer
 
-from tognet.cliutil import out_file, user_errors
+from tognet.cli.util import out_file, user_errors
 from tognet.tasks import TASK_NAMES, reference_points
 
 DEPTH_SUFFIXES = (".png", ".npy", ".npz")
@@ -142,7 +142,7 @@ def _arm_config(robot: str | None, base_pose: Path | None) -> Any:
     """The SimConfig of the --robot arm (its preset; its base from --base-pose), None without --robot."""
     if robot is None:
         return None
-    from tognet.cliutil import robot_config
+    from tognet.cli.util import robot_config
     from tognet.planning.reach import load_base_pose
     from tognet.sim.config import SimConfig
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import typer
 
-from tognet.cliutil import check_disk, check_memory, out_folder, user_errors
+from tognet.cli.util import check_disk, check_memory, out_folder, user_errors
 
 #: The most scenes per scripted check ``--seeds`` takes (a few episodes each, about a second).
 MAX_SEEDS = 1000
@@ -42,8 +42,8 @@ def demo(
     --out gets objects/<kind>/ (the generated sets), sheet_<kind>.png (contact sheets), tasks/ (grasp
     candidates on a simulated depth image, hammering.gif) and evaluation/ (report.html, results.json). Run
     again it regenerates the objects and resumes the evaluation (settings unchanged)."""
+    from tognet.cli.objects import OBJECT_BYTES, RECORD_BYTES
     from tognet.objects import generate_set
-    from tognet.objects.cli import OBJECT_BYTES, RECORD_BYTES
     from tognet.objects.generate import realistic_count
     from tognet.objects.sheet import write_contact_sheet
 

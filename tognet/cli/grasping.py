@@ -13,7 +13,7 @@ from pathlib import Path
 
 import typer
 
-from tognet.cliutil import out_file, user_errors
+from tognet.cli.util import out_file, user_errors
 from tognet.config import ConfigError
 from tognet.errors import TognetError
 from tognet.geometry import Camera

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from tognet.cliutil import (
+from tognet.cli.util import (
     RAY_ADDRESS_HELP,
     RAY_HELP,
     ROBOT_HELP,

@@ -1,9 +1,10 @@
-"""The ``tognet`` command. Each area of the package adds its subcommands through ``register(app)``."""
+"""The ``tognet`` command, the top floor: one module per area of the package (``tognet/cli/<area>.py``), each
+adding its subcommands through ``register(app)``; ``util`` holds what they share. No library package
+imports this one."""
 
 from __future__ import annotations
 
 import importlib
-import importlib.util
 import os
 import sys
 
@@ -17,17 +18,18 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 
-# Modules that define ``register(app: typer.Typer) -> None``; each is optional while the project grows.
+# Modules that define ``register(app: typer.Typer) -> None`` (each imports its library lazily, inside its
+# commands, so that ``tognet --help`` stays fast).
 _COMMAND_MODULES = (
-    "tognet.demo.cli",
-    "tognet.objects.cli",
-    "tognet.sim.cli",
-    "tognet.grasping.cli",
-    "tognet.model.cli",
-    "tognet.data.cli",
-    "tognet.collect.cli",
-    "tognet.planning.cli",
-    "tognet.evaluate.cli",
+    "tognet.cli.demo",
+    "tognet.cli.objects",
+    "tognet.cli.sim",
+    "tognet.cli.grasping",
+    "tognet.cli.model",
+    "tognet.cli.data",
+    "tognet.cli.collect",
+    "tognet.cli.planning",
+    "tognet.cli.evaluate",
 )
 
 
@@ -38,9 +40,6 @@ def _root() -> None:
 
 def _register_all() -> None:
     for name in _COMMAND_MODULES:
-        parent = name.rsplit(".", 1)[0]
-        if importlib.util.find_spec(parent) is None or importlib.util.find_spec(name) is None:
-            continue
         importlib.import_module(name).register(app)
 
 

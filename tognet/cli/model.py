@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from tognet.cliutil import out_file, out_folder, user_errors
+from tognet.cli.util import out_file, out_folder, user_errors
 
 model_app = typer.Typer(help="Inspect and evaluate trained TOG-Net checkpoints.", no_args_is_help=True)
 
