@@ -5,6 +5,8 @@
   imports and module names given as strings to a lazy loader alike).
 * No module imports a private name (one starting with ``_``) of another tognet package.
 * No code outside ``tognet/tasks`` branches on a task's name (read from the source the same way).
+* Every import points down the layers (:data:`LAYERS`, geometry at the bottom, the command line on top),
+  and no file imports itself through others (no loops between files).
 """
 
 from __future__ import annotations
@@ -205,3 +207,122 @@ def test_no_code_outside_tasks_branches_on_a_task_name():
                                            'z = {"pulling": 1}'), names)
     assert [w for _, w in caught] == ["compares with a task name", "indexes by a task name",
                                       "keys a dict with a task name"]
+
+
+# --- the layers: imports point down, and no file imports itself through others --------------------------
+#: tognet's packages (and top-level modules) by layer, bottom to top. A module imports from its own layer
+#: and the layers below only, function-level imports included; the command line is the top floor.
+LAYERS: tuple[tuple[str, ...], ...] = (
+    ("errors", "lazy_names", "config", "io"),
+    ("geometry",),
+    ("objects",),
+    ("tasks",),
+    ("sim",),
+    ("grasping",),
+    ("data",),
+    ("models",),
+    ("model",),
+    ("policies",),
+    ("planning",),
+    ("jobs",),
+    ("envs", "demo"),
+    ("collect", "evaluate"),
+    ("cli",),
+)
+LAYER = {f"tognet.{name}": i for i, names in enumerate(LAYERS) for name in names}
+
+
+def layer_of(dotted: str) -> int | None:
+    """The layer of a tognet module (None for ``tognet`` itself, which only names things lazily)."""
+    top = top_package(dotted)
+    if top == "tognet":
+        return None
+    if top not in LAYER:
+        raise AssertionError(f"{top} is in no layer: add it to LAYERS")
+    return LAYER[top]
+
+
+def upward_imports(source: str, module: str, is_package: bool = False) -> list[str]:
+    """Where ``module`` imports from a higher layer than its own."""
+    own = layer_of(module)
+    out = []
+    for i in imports(source, module, is_package):
+        for target in i.targets():
+            if not target.startswith("tognet.") or own is None:
+                continue
+            theirs = layer_of(target)
+            if theirs is not None and theirs > own:
+                out.append(f"line {i.line}: {target} (layer {theirs} above {own})")
+                break
+    return out
+
+
+def file_graph(paths: list[Path]) -> dict[str, set[str]]:
+    """Which tognet module imports which (function-level imports and lazy tables included)."""
+    names = {module_name(p): p for p in paths}
+    graph: dict[str, set[str]] = {m: set() for m in names}
+    for m, path in names.items():
+        for i in imports(path.read_text(), m, path.name == "__init__.py"):
+            graph[m] |= {t for t in i.targets() if t in names and t != m}
+    return graph
+
+
+def loops(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The import loops of ``graph``: its strongly connected parts of more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        for w in sorted(graph[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            part = []
+            while not part or part[-1] != v:
+                part.append(stack.pop())
+            if len(part) > 1:
+                found.append(sorted(part))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_every_import_points_down_the_layers():
+    paths = modules()
+    assert {layer_of(module_name(p)) for p in paths} >= set(range(len(LAYERS)))  # every layer has files
+    assert _check(paths, upward_imports) == {}
+
+
+def test_no_file_imports_itself_through_others():
+    assert loops(file_graph(modules())) == []
+
+
+@pytest.mark.parametrize("source, module", [
+    ("def f():\n    from tognet.planning import make_planner", "tognet.sim.world"),
+    ("from tognet.cli.util import task_list", "tognet.evaluate.harness"),
+    ("_WHERE = {'x': 'tognet.model.predict'}", "tognet.grasping.crops"),
+    ("from ..policies import view", "tognet.data.stream"),
+])
+def test_an_upward_import_is_found_however_it_is_written(source, module):
+    assert upward_imports(source, module)
+
+
+def test_imports_down_or_beside_pass():
+    assert not upward_imports("from tognet.geometry import Camera", "tognet.planning.user")
+    assert not upward_imports("from tognet.collect.config import PRESETS", "tognet.evaluate.harness")
+    assert not upward_imports("from .methods import make_planner", "tognet.planning.user")
+
+
+def test_a_loop_is_found():
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}, "e": set()}
+    assert loops(graph) == [["a", "b", "c"]]
+    assert loops({"a": {"b"}, "b": set()}) == []

@@ -11,7 +11,6 @@ from __future__ import annotations
 import hashlib
 import json
 from dataclasses import dataclass, replace
-from importlib import resources
 from pathlib import Path
 from typing import Literal
 
@@ -151,15 +150,15 @@ class PipelineConfig(Config):
 #: 2 cores for two tasks), ``quick-search`` (the learned action search's recipe), ``medium`` (that recipe
 #: with twice the objects and six rounds: one task fits in 3 hours on 2 cores) and ``paper``.
 PRESETS = ("ci", "quick", "quick-search", "medium", "paper")
+#: Where the presets' files are (shipped inside the package).
+PRESETS_DIR = Path(__file__).resolve().parent / "presets"
 
 
 def load_preset(name_or_path: str | Path) -> PipelineConfig:
     """A preset by name (one of :data:`PRESETS`, shipped in tognet/collect/presets) or a JSON file's path."""
     text = str(name_or_path)
     if text in PRESETS:
-        ref = resources.files("tognet.collect").joinpath("presets", f"{text}.json")
-        with resources.as_file(ref) as path:
-            return PipelineConfig.load(path)
+        return PipelineConfig.load(PRESETS_DIR / f"{text}.json")
     path = Path(text)
     if not path.is_file():
         if path.suffix.lower() == ".json" or "/" in text or path.is_dir():

@@ -408,7 +408,7 @@ def write_report(out: Path, results: dict[str, Any], records: Sequence[dict[str,
                  log: Callable[[str], None] = print) -> tuple[Path, Path]:
     """Write ``report.html`` and ``report.md`` into ``out`` (figures in ``out/figures``, animations in
     ``out/gifs``, rendered on ``executor``'s workers when one is given); returns both paths."""
-    from tognet.evaluate import figures
+    import tognet.evaluate.figures as figures
 
     fig_dir = out / "figures"
     tasks = list(results["tasks"])

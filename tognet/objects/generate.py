@@ -75,7 +75,7 @@ def _check(kind: str, split: str, index: int) -> None:
 
 def _realistic_module() -> Any:
     """The realistic set's module (loaded on first use: it builds meshes with trimesh)."""
-    from tognet.objects import realistic
+    import tognet.objects.realistic as realistic
 
     return realistic
 

@@ -20,8 +20,8 @@ import mujoco
 import numpy as np
 
 from tognet.sim.config import SimConfig
+from tognet.sim.hand import WRIST_DAMPING, hand_body_xml, hand_flange_offset
 from tognet.sim.physics import ArmStuck
-from tognet.sim.world import WRIST_DAMPING, hand_body_xml, hand_flange_offset
 
 #: The hand's bodies (tognet.sim.world), none of which collides with the arm carrying it.
 HAND_BODIES = ("hand", "finger_l", "finger_r")

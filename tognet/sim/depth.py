@@ -18,7 +18,7 @@ from tognet.geometry import Camera, CameraIntrinsics
 from tognet.geometry.raster import mesh_depth
 from tognet.geometry.transforms import make_pose, rot_x, rot_y, rot_z
 from tognet.sim.config import CameraConfig, SimConfig
-from tognet.sim.world import GROUP_OBJECT_VISUAL
+from tognet.sim.groups import GROUP_OBJECT_VISUAL
 
 
 def hull_2d(points: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -26,8 +26,8 @@ from numpy.typing import NDArray
 
 from tognet.config import Config, doc
 from tognet.geometry import Camera
+from tognet.sim.groups import GROUP_DECOR, GROUP_OBJECT_VISUAL, GROUP_PROPS, GROUP_STATIC
 from tognet.sim.render import RenderError
-from tognet.sim.world import GROUP_DECOR, GROUP_OBJECT_VISUAL, GROUP_PROPS, GROUP_STATIC
 
 #: What the second camera sees by default: the table, the ground, the tool's visual mesh, the task's props
 #: and the table's legs (not the gripper, nor the tool's collision pieces, which duplicate its mesh).

@@ -31,6 +31,7 @@ from tognet.objects.record import ObjectRecord
 from tognet.sim.arm import arm_driver
 from tognet.sim.config import SimConfig
 from tognet.sim.depth import DepthRenderer, sample_camera
+from tognet.sim.groups import GROUP_PROPS
 from tognet.sim.physics import (
     FINGER_L,
     FINGER_R,
@@ -47,7 +48,7 @@ from tognet.sim.physics import (
     same_prefix,
 )
 from tognet.sim.trial import Trial, TrialResult
-from tognet.sim.world import GROUP_PROPS, PARK, touch_sensor_names, world_xml
+from tognet.sim.world import PARK, touch_sensor_names, world_xml
 from tognet.tasks import SIM_TASKS, TASK_NAMES, Task, get_props, get_task
 from tognet.tasks.props import PropsMJCF, TaskProps
 

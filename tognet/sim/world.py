@@ -14,21 +14,26 @@ import numpy as np
 
 from tognet.objects.record import ObjectRecord
 from tognet.sim.config import SimConfig
+from tognet.sim.groups import (
+    GROUP_DECOR,
+    GROUP_GRIPPER,
+    GROUP_OBJECT_COLLISION,
+    GROUP_OBJECT_VISUAL,
+    GROUP_STATIC,
+)
+from tognet.sim.hand import (
+    finger_actuators,
+    hand_body_xml,
+    hand_flange_offset,
+    hand_lines,
+    values_text,
+)
 from tognet.tasks.props import PropsMJCF
 
-GROUP_STATIC, GROUP_OBJECT_VISUAL, GROUP_GRIPPER, GROUP_OBJECT_COLLISION, GROUP_PROPS, GROUP_DECOR = range(6)
-#: Geom groups the depth camera's rays can hit.
-CAMERA_GROUPS = (GROUP_STATIC, GROUP_OBJECT_VISUAL)
 #: Where the gripper waits, out of the camera's view, while a scene settles.
 PARK = (0.3, 0.0, 1.2)
-#: Damping of the wrist joint (N m s/rad): the floating base's, and an arm's last joint's.
-WRIST_DAMPING = 0.01
 # Travel of the gripper base's slide joints (m): x, y, z of the grasp centre.
 BASE_RANGE = ((-2.0, 2.0), (-2.0, 2.0), (-0.2, 2.0))
-
-
-def _v(values: object) -> str:
-    return " ".join(f"{float(v):.9g}" for v in np.ravel(values))
 
 
 def _object_xml(config: SimConfig, obj: ObjectRecord) -> tuple[list[str], list[str]]:
@@ -45,11 +50,11 @@ def _object_xml(config: SimConfig, obj: ObjectRecord) -> tuple[list[str], list[s
     # so the free joint moves the centre of mass: no velocity-product (centripetal) coupling between its
     # translation and rotation for the integrator to lag behind on (Simulator.object_pose() gives the
     # object's own frame).
-    shift = f'pos="{_v(-np.asarray(obj.com, dtype=np.float64))}"'
+    shift = f'pos="{values_text(-np.asarray(obj.com, dtype=np.float64))}"'
     body = [
         '<body name="object" pos="0 0 0.5">',
         '  <freejoint name="object"/>',
-        f'  <inertial pos="0 0 0" mass="{obj.mass:.9g}" fullinertia="{_v(full)}"/>',
+        f'  <inertial pos="0 0 0" mass="{obj.mass:.9g}" fullinertia="{values_text(full)}"/>',
     ]
     body += [
         f'  <geom name="piece_{i:02d}" type="mesh" mesh="piece_{i:02d}" {shift} friction="{friction}" '
@@ -66,90 +71,22 @@ def _object_xml(config: SimConfig, obj: ObjectRecord) -> tuple[list[str], list[s
     return assets, body
 
 
-def _hand_lines(config: SimConfig, floating: bool) -> list[str]:
-    """The hand's ``<body>`` (palm and two slide fingers; its frame at the grasp centre, z up, x along the
-    jaw): on the floating base with its yaw joint and a wrist, on an arm without them (the arm's own
-    wrist turns it)."""
-    g = config.gripper
-    t, pw, ph = g.pad_size
-    half_open = 0.5 * g.max_opening
-    top = 0.5 * ph + g.finger_length  # finger top = palm bottom, above the grasp centre
-    link_h = 0.5 * (top + 0.5 * ph)
-    link_z = top - link_h
-    pad = (
-        f'friction="{g.pad_friction:g} {g.pad_torsional_friction:g} 0.0001" condim="4" priority="2" '
-        f'solref="{g.pad_solref[0]:g} {g.pad_solref[1]:g}" solimp="{_v(g.pad_solimp)} 0.5 2" '
-        f'group="{GROUP_GRIPPER}" rgba="0.2 0.2 0.25 1"'
-    )
-    body = ['<body name="hand" gravcomp="1">']
-    if floating:
-        body.append(
-            f'  <joint name="grip_yaw" type="hinge" axis="0 0 1" armature="{g.yaw_armature:g}" '
-            f'damping="{WRIST_DAMPING:g}"/>'
-        )
-    body += [
-        f'  <inertial pos="0 0 {top + 0.015:.4f}" mass="{g.hand_mass:g}" diaginertia="4e-4 2e-4 4e-4"/>',
-        f'  <geom name="palm" type="box" size="{half_open + t + 0.01:.4f} 0.025 0.015" '
-        f'pos="0 0 {top + 0.015:.4f}" group="{GROUP_GRIPPER}" rgba="0.3 0.3 0.35 1"/>',
-    ]
-    if floating:
-        body.append(
-            f'  <geom name="wrist" type="cylinder" size="0.03 0.05" pos="0 0 {top + 0.08:.4f}" '
-            f'group="{GROUP_GRIPPER}" rgba="0.5 0.5 0.55 1"/>'
-        )
-    for side, sign in (("l", -1.0), ("r", 1.0)):
-        body += [
-            f'  <body name="finger_{side}" gravcomp="1">',
-            f'    <joint name="finger_{side}" type="slide" axis="{sign:g} 0 0" '
-            f'range="0 {half_open:.4f}" '
-            f'damping="2" armature="{g.finger_armature:g}"/>',
-            '    <inertial pos="0 0 0.02" mass="0.03" diaginertia="1e-5 1e-5 1e-5"/>',
-            f'    <geom name="finger_{side}" type="box" '
-            f'size="{0.5 * t:.4f} {0.5 * pw:.4f} {link_h:.4f}" '
-            f'pos="{sign * 0.5 * t:.4f} 0 {link_z:.4f}" {pad}/>',
-            "  </body>",
-        ]
-    body.append("</body>")
-    return body
-
-
-def hand_flange_offset(config: SimConfig) -> float:
-    """How far the grasp centre lies out of an arm's flange (m): the top of the hand's palm is on it."""
-    g = config.gripper
-    return 0.5 * g.pad_size[2] + g.finger_length + 0.03
-
-
-def hand_body_xml(config: SimConfig) -> str:
-    """The hand's ``<body>`` as an arm carries it (:mod:`tognet.sim.arm`)."""
-    return "\n".join(_hand_lines(config, floating=False))
-
-
-def _finger_actuators(config: SimConfig) -> list[str]:
-    g = config.gripper
-    half_open = 0.5 * g.max_opening
-    return [
-        f'<position name="act_finger_{side}" joint="finger_{side}" kp="{g.finger_kp:g}" '
-        f'kv="{g.finger_kv:g}" '
-        f'ctrlrange="-0.02 {half_open:.4f}" forcerange="{-g.finger_force:g} {g.finger_force:g}"/>'
-        for side in ("l", "r")
-    ]
-
-
 def _gripper_xml(config: SimConfig) -> tuple[list[str], list[str]]:
     """The floating gripper: the hand on an x, y, z carriage (its yaw joint in the hand)."""
     g = config.gripper
     carriage = 'mass="1.0" diaginertia="0.01 0.01 0.01"'
+    rx, ry, rz = (values_text(r) for r in BASE_RANGE)
     body = [
         '<body name="carriage_x" gravcomp="1">',
-        f'  <joint name="grip_x" type="slide" axis="1 0 0" range="{_v(BASE_RANGE[0])}" damping="5"/>',
+        f'  <joint name="grip_x" type="slide" axis="1 0 0" range="{rx}" damping="5"/>',
         f"  <inertial pos='0 0 0' {carriage}/>",
         '  <body name="carriage_y" gravcomp="1">',
-        f'    <joint name="grip_y" type="slide" axis="0 1 0" range="{_v(BASE_RANGE[1])}" damping="5"/>',
+        f'    <joint name="grip_y" type="slide" axis="0 1 0" range="{ry}" damping="5"/>',
         f"    <inertial pos='0 0 0' {carriage}/>",
         '    <body name="carriage_z" gravcomp="1">',
-        f'      <joint name="grip_z" type="slide" axis="0 0 1" range="{_v(BASE_RANGE[2])}" damping="5"/>',
+        f'      <joint name="grip_z" type="slide" axis="0 0 1" range="{rz}" damping="5"/>',
         f"      <inertial pos='0 0 0' {carriage}/>",
-        *[f"      {line}" for line in _hand_lines(config, floating=True)],
+        *[f"      {line}" for line in hand_lines(config, floating=True)],
         "    </body>",
         "  </body>",
         "</body>",
@@ -164,7 +101,7 @@ def _gripper_xml(config: SimConfig) -> tuple[list[str], list[str]]:
         f'<intvelocity name="act_yaw" joint="grip_yaw" kp="{g.yaw_kp:g}" kv="{g.yaw_kv:g}" '
         f'ctrlrange="{-vy:g} {vy:g}" actrange="-30 30" forcerange="{-g.yaw_torque:g} {g.yaw_torque:g}"/>'
     )
-    return body, act + _finger_actuators(config)
+    return body, act + finger_actuators(config)
 
 
 def _touch_pairs(props: PropsMJCF, hand_root: str = "hand") -> list[tuple[str, str, str]]:
@@ -204,7 +141,7 @@ def world_xml(config: SimConfig, obj: ObjectRecord, props: PropsMJCF) -> str:
         from tognet.sim.arm import arm_parts
 
         arm = arm_parts(config, hand_body_xml(config), hand_flange_offset(config), GROUP_GRIPPER)
-        grip_body, actuators = arm["worldbody"], arm["actuator"] + _finger_actuators(config)
+        grip_body, actuators = arm["worldbody"], arm["actuator"] + finger_actuators(config)
         hand_root = "arm_mount"
     contact = [*props.contact, *arm["contact"]]
     legs = [
