@@ -2,7 +2,7 @@
 
     .venv/bin/python benchmarks/bench_robot_ik.py [--arm panda sawyer] [--grid 5] [--yaws 8]
 
-Each arm stands at its default base pose (tognet.sim.robot.arms.ARMS). Poses: a grid over the grasping
+Each arm stands at its default base pose (tognet.robot.arms.ARMS). Poses: a grid over the grasping
 half's drop area (x in drop_x, y in drop_y, 2 cm above the top) and over the manipulation half (x in
 [0.05, 0.45], y in [-0.3, 0.3], 15 cm above the top), each at ``--yaws`` yaws in [0, 2 pi). Every solve
 starts from the arm's home configuration. Prints per arm and region the share reached / unreachable /
@@ -23,10 +23,10 @@ from collections import Counter
 import mujoco
 import numpy as np
 
+from tognet.robot import ARM_NAMES, ArmIK, IKStatus, grasp_frame, joint_path, load_arm
+from tognet.robot.control import follow, set_joints
+from tognet.robot.ik import tcp_errors
 from tognet.sim import WorldConfig
-from tognet.sim.robot import ARM_NAMES, ArmIK, IKStatus, grasp_frame, joint_path, load_arm
-from tognet.sim.robot.control import follow, set_joints
-from tognet.sim.robot.ik import tcp_errors
 
 PATHS = {
     "30 cm line": [(x, 0.0, 0.15, 0.0) for x in np.linspace(0.0, 0.3, 31)],

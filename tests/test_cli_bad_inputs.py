@@ -684,7 +684,7 @@ def test_an_unusable_mujoco_gl_stops_only_the_animation_before_the_episode(tmp_p
 
 
 def test_plan_robot_without_the_robot_extra_is_one_line_with_the_install_hint(ws, monkeypatch):
-    import tognet.sim.robot.arms as arms
+    import tognet.robot.arms as arms
 
     find_spec = importlib.util.find_spec
     monkeypatch.setattr(arms.importlib.util, "find_spec",

@@ -217,6 +217,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("geometry",),
     ("objects",),
     ("tasks",),
+    ("robot",),
     ("sim",),
     ("grasping",),
     ("data",),

@@ -16,7 +16,8 @@ SIM_DIR = Path(tognet.sim.__file__).parent
 MODELS = Path(tognet.sim.__file__).parent.parent / "models"
 
 
-@pytest.mark.parametrize("path", sorted(SIM_DIR.rglob("*.py")), ids=lambda p: str(p.relative_to(SIM_DIR)))
+@pytest.mark.parametrize("path", sorted([*SIM_DIR.rglob("*.py"), *(SIM_DIR.parent / "robot").rglob("*.py")]),
+                         ids=lambda p: str(p.relative_to(SIM_DIR.parent)))
 def test_no_sim_module_names_a_task(path):
     text = path.read_text()
     for name in TASK_NAMES:

@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from tognet.sim.robot import (
+from tognet.robot import (
     ARM_NAMES,
     ArmIK,
     IKStatus,
@@ -19,9 +19,9 @@ from tognet.sim.robot import (
     grasp_frame,
     load_arm,
 )
-from tognet.sim.robot import arms as arms_module
-from tognet.sim.robot import ik as ik_module
-from tognet.sim.robot.ik import tcp_errors
+from tognet.robot import arms as arms_module
+from tognet.robot import ik as ik_module
+from tognet.robot.ik import tcp_errors
 
 HAVE_EXTRA = all(importlib.util.find_spec(name) is not None for name in ("robosuite", "mink"))
 needs_extra = pytest.mark.skipif(not HAVE_EXTRA, reason="the robot extra (robosuite, mink) is not installed")
@@ -118,8 +118,8 @@ def test_a_pose_too_close_to_the_base_is_a_joint_limit():
 def test_the_arm_stands_in_tognets_world_and_reaches_over_the_table(arm, tools):
     """Placed into the simulator's own world MJCF: it compiles, and at home and at an IK grasp 5 cm above
     the table no arm geom touches the table or the ground (the arm's own links may touch each other)."""
+    from tognet.robot import place_arm
     from tognet.sim import SimConfig
-    from tognet.sim.robot import place_arm
     from tognet.sim.world import world_xml
     from tognet.tasks.props import PropsMJCF
 
@@ -147,7 +147,7 @@ def test_a_wrist_swing_is_timed_by_the_wrist_speed_limit(arm):
     """A quarter turn about the vertical at a start pose over the manipulation half: the joints follow it
     continuously, and its shortest time is set by the wrist's speed limit (far slower than the floating
     gripper's 9 rad/s swing)."""
-    from tognet.sim.robot import joint_path
+    from tognet.robot import joint_path
 
     poses = [(0.2, 0.05, 0.15, 0.3 + a) for a in np.linspace(0.0, math.pi / 2, 10)]
     path = joint_path(ArmIK(arm), poses)
@@ -164,8 +164,8 @@ def test_a_wrist_swing_is_timed_by_the_wrist_speed_limit(arm):
 def test_the_servos_follow_a_straight_line_to_within_a_millimetre(arm):
     """The arm with its joint servos (speed-capped setpoints, the model's torque limits, gravity
     compensated) follows the joint path of a 30 cm line over the table and ends on its last pose."""
-    from tognet.sim.robot import joint_path
-    from tognet.sim.robot.control import follow, set_joints
+    from tognet.robot import joint_path
+    from tognet.robot.control import follow, set_joints
 
     driven = load_arm(arm.spec.name, servos=True)
     model, data = driven.model, mujoco.MjData(driven.model)

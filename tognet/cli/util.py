@@ -45,7 +45,7 @@ TASKS_HELP = (
 
 ROBOT_HELP = (
     "What carries the hand: floating (the default), sawyer or panda (a real arm beside the table, "
-    "pip install 'tognet\\[robot]'); an arm's preset (tognet/sim/robot/presets) goes on top of the config."
+    "pip install 'tognet\\[robot]'); an arm's preset (tognet/robot/presets) goes on top of the config."
 )
 
 
@@ -59,7 +59,7 @@ def robot_config(sim: Any, robot: str | None, option: str = "--robot") -> Any:
     if robot not in ROBOTS:
         raise ValueError(f"unknown {option} {robot!r}: choose from {', '.join(ROBOTS)}")
     if robot != "floating":
-        from tognet.sim.robot.ik import require_extra
+        from tognet.robot.ik import require_extra
 
         require_extra()
     return with_robot(sim, robot)

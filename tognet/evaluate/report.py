@@ -499,7 +499,7 @@ def _carrier_line(robot: dict[str, Any]) -> str:
         return "The hand on the floating x, y, z, yaw base (no arm)."
     base = robot.get("base_position")
     where = f"its base at {base}" if base else "at its default base pose"
-    return (f"The hand carried by the {name} arm ({where}; its preset, tognet/sim/robot/presets/{name}.json, "
+    return (f"The hand carried by the {name} arm ({where}; its preset, tognet/robot/presets/{name}.json, "
             "on top of the config): joint speed limits, ranges and reach count.")
 
 

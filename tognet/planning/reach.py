@@ -130,7 +130,7 @@ class Envelope:
 
     @classmethod
     def of_arm(cls, arm: Any) -> Envelope:
-        """The envelope of an arm (``tognet.sim.robot.ArmModel``) where its base stands, carrying its hand
+        """The envelope of an arm (``tognet.robot.ArmModel``) where its base stands, carrying its hand
         (the stretch between the joints depends on neither: searched once per arm)."""
         fk = _kinematics(arm)
         fk.update(arm.home)
@@ -160,7 +160,7 @@ class Envelope:
         p = np.asarray(poses, dtype=np.float64).reshape(-1, 4)
         c, s = np.cos(p[:, 3]), np.sin(p[:, 3])
         dx, dy, dz = self.wrist
-        # The TCP frame of a top-down pose (tognet.sim.robot.ik.grasp_frame): x (c, s, 0), y (s, -c, 0),
+        # The TCP frame of a top-down pose (tognet.robot.ik.grasp_frame): x (c, s, 0), y (s, -c, 0),
         # z (0, 0, -1).
         wx = p[:, 0] + dx * c + dy * s
         wy = p[:, 1] + dx * s - dy * c
@@ -270,8 +270,8 @@ class ArmReach:
     the grasp's alone). RobotExtraMissing without the robot extra."""
 
     def __init__(self, sim_config: Any, task: Any = None, config: ReachConfig | None = None) -> None:
+        from tognet.robot.arms import arm_spec
         from tognet.sim.arm import arm_solver
-        from tognet.sim.robot.arms import arm_spec
 
         if sim_config.robot.name == "floating":
             raise ValueError("the floating gripper has no arm to plan for")
@@ -364,8 +364,8 @@ class ArmReach:
         (:func:`tognet.sim.arm.plan_reach`, without the execution noise); the grasp's own steps alone
         without a task or a reference point. A step beyond the envelope (a start pose far from the arm) is
         out of reach without inverse kinematics (``path`` None)."""
+        from tognet.robot.arms import ArmStuck
         from tognet.sim.arm import Reach, plan_reach, trial_steps
-        from tognet.sim.physics import ArmStuck
 
         g = np.asarray(grasp, dtype=np.float64).reshape(4)
         if self.task is None or reference is None:

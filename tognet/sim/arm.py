@@ -1,8 +1,8 @@
 """An arm in the simulator's world (``SimConfig.robot``; the optional ``robot`` extra): its MJCF beside
 the table, carrying the simulator's own hand, and the driver that turns the hand's setpoint into joint
-commands (:class:`tognet.sim.robot.driver.ArmDriver`).
+commands (:class:`tognet.robot.driver.ArmDriver`).
 
-The arm (robosuite's model files, :mod:`tognet.sim.robot.arms`) stands on a pedestal from the ground to
+The arm (robosuite's model files, :mod:`tognet.robot.arms`) stands on a pedestal from the ground to
 its base. Its links are the gripper's category for contacts (touching a prop with the elbow is a
 collision like touching it with the palm), are seen by no camera, and collide with the world but not
 with each other or with the hand they carry. Its last joint is the hand's wrist (see
@@ -19,16 +19,16 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from tognet.robot.arms import ArmStuck
 from tognet.sim.config import SimConfig
 from tognet.sim.hand import WRIST_DAMPING, hand_body_xml, hand_flange_offset
-from tognet.sim.physics import ArmStuck
 
 #: The hand's bodies (tognet.sim.world), none of which collides with the arm carrying it.
 HAND_BODIES = ("hand", "finger_l", "finger_r")
 
 
 def _arm_mjcf(config: SimConfig, hand_body: str, flange_offset: float) -> str:
-    from tognet.sim.robot.arms import HandMount, add_servos, arm_spec, arm_xml
+    from tognet.robot.arms import HandMount, add_servos, arm_spec, arm_xml
 
     r, g = config.robot, config.gripper
     mount = HandMount(hand_body, flange_offset, arm_spec(r.name).hand_yaw)
@@ -68,7 +68,7 @@ def arm_parts(config: SimConfig, hand_body: str, flange_offset: float, group: in
 
 @cache
 def _kinematic_arm(config: SimConfig, hand_body: str, flange_offset: float) -> Any:
-    from tognet.sim.robot.arms import HandMount, arm_spec, load_arm
+    from tognet.robot.arms import HandMount, arm_spec, load_arm
 
     r = config.robot
     mount = HandMount(hand_body, flange_offset, arm_spec(r.name).hand_yaw)
@@ -76,7 +76,7 @@ def _kinematic_arm(config: SimConfig, hand_body: str, flange_offset: float) -> A
 
 
 def arm_solver(config: SimConfig) -> Any:
-    """The :class:`~tognet.sim.robot.driver.ArmSolver` of ``config.robot``: the arm alone carrying the
+    """The :class:`~tognet.robot.driver.ArmSolver` of ``config.robot``: the arm alone carrying the
     simulator's hand, its IK and the resolved-rate step the simulator drives it with (built once per
     config and process)."""
     return _solver(config, hand_body_xml(config), hand_flange_offset(config))
@@ -84,8 +84,8 @@ def arm_solver(config: SimConfig) -> Any:
 
 @cache
 def _solver(config: SimConfig, hand_body: str, flange_offset: float) -> Any:
-    from tognet.sim.robot.driver import ArmSolver
-    from tognet.sim.robot.ik import ArmIK
+    from tognet.robot.driver import ArmSolver
+    from tognet.robot.ik import ArmIK
 
     arm = _kinematic_arm(config, hand_body, flange_offset)
     r = config.robot
@@ -93,8 +93,8 @@ def _solver(config: SimConfig, hand_body: str, flange_offset: float) -> Any:
 
 
 def arm_driver(config: SimConfig, world: mujoco.MjModel) -> Any:
-    """The :class:`~tognet.sim.robot.driver.ArmDriver` of the arm in the compiled ``world``."""
-    from tognet.sim.robot.driver import ArmDriver
+    """The :class:`~tognet.robot.driver.ArmDriver` of the arm in the compiled ``world``."""
+    from tognet.robot.driver import ArmDriver
 
     driver = ArmDriver(arm_solver(config), world)
     base = world.body("arm_mount").id
@@ -113,7 +113,7 @@ GRASP_STEPS = ("the approach", "the grasp", "the lift")
 
 @dataclass(frozen=True)
 class Reach:
-    """Whether an arm reaches a trial's steps: the joint path (``tognet.sim.robot.ik.JointPath``, up to
+    """Whether an arm reaches a trial's steps: the joint path (``tognet.robot.ik.JointPath``, up to
     the first step out of reach), the ArmStuck naming that step (None: every step reached) and the extra
     whole turn of the wrist to the start yaw that the path takes."""
 
@@ -157,9 +157,9 @@ def reach_steps(solver: Any, steps: list[Step], q: Any = None, tolerance: float 
     """Whether the arm follows ``steps`` as the simulator drives it: IK for the first step (from the arm's
     joints ``q``, or when None from each start the IK tries: its wrist turned either way round, since the
     wrist's range has to hold every turn the trial makes), then a dry run of the straight moves between
-    the steps (:meth:`~tognet.sim.robot.driver.ArmSolver.dry_run`); the start that gets furthest. The
+    the steps (:meth:`~tognet.robot.driver.ArmSolver.dry_run`); the start that gets furthest. The
     path's times are the joints' speed limits' (``JointPath.min_times``)."""
-    from tognet.sim.robot.ik import IKStatus, JointPath
+    from tognet.robot.ik import IKStatus, JointPath
 
     arm = solver.arm
     poses = [(np.asarray(p, dtype=np.float64), float(yaw)) for _, p, yaw in steps]

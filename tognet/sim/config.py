@@ -231,7 +231,7 @@ ROBOTS = ("floating", "sawyer", "panda")
 @dataclass(frozen=True)
 class RobotConfig(Config):
     """What carries the hand: the floating x, y, z, yaw base (the default, as VGN's), or a real arm beside
-    the table (``pip install 'tognet[robot]'``, :mod:`tognet.sim.robot`) carrying the same hand.
+    the table (``pip install 'tognet[robot]'``, :mod:`tognet.robot`) carrying the same hand.
 
     An arm runs the same trial through joint servos: every move of the hand's setpoint is turned into
     joint speeds by resolved-rate inverse kinematics, each capped at its joint's speed limit (the arm then
@@ -245,7 +245,7 @@ class RobotConfig(Config):
     base_position: tuple[float, float, float] | None = doc(
         None,
         "The arm's base (m, world frame; the table top is z = 0); None: the arm's default, beside the "
-        "table's long side at y > 0, facing it (tognet.sim.robot.arms.ARMS).",
+        "table's long side at y > 0, facing it (tognet.robot.arms.ARMS).",
     )
     base_yaw: float | None = doc(None, "The arm's base yaw (rad); None: the arm's default (facing -y).")
     park: tuple[float, float, float] = doc(
@@ -332,7 +332,7 @@ def _merge(base: dict[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:
 
 def with_robot(config: SimConfig, name: str) -> SimConfig:
     """``config`` with the hand carried by ``name`` (one of :data:`ROBOTS`): for an arm, its preset
-    (``tognet/sim/robot/presets/<name>.json``) on top.
+    (``tognet/robot/presets/<name>.json``) on top.
 
     An arm's wrist turns slower than the floating base's (``gripper.yaw_speed``: the Sawyer's last joint
     4.545 rad/s, the Panda's 2.61, against 9), and a swing carries energy in proportion to the speed
@@ -348,5 +348,5 @@ def with_robot(config: SimConfig, name: str) -> SimConfig:
     import json
     from importlib import resources
 
-    text = resources.files("tognet.sim.robot").joinpath("presets", f"{name}.json").read_text()
+    text = resources.files("tognet.robot").joinpath("presets", f"{name}.json").read_text()
     return SimConfig.from_dict(_merge(config.to_dict(), json.loads(text)), where=f"robot preset {name}")

@@ -3,7 +3,7 @@ waiting for the servos, and reading what the hand holds.
 
 The hand's setpoint (x, y, z of the grasp centre, yaw) is the floating base's servo activations
 (``data.act[:4]``); with an arm (``SimConfig.robot``) it is kept here and every chunk of a move hands it
-to :class:`tognet.sim.robot.driver.ArmDriver`, which turns it into joint-servo speeds.
+to :class:`tognet.robot.driver.ArmDriver`, which turns it into joint-servo speeds.
 
 :class:`GripperControl` is a part of :class:`tognet.sim.simulator.Simulator` (it steps through
 :meth:`tognet.sim.physics.PhysicsCore._step` and reads the joint addresses the constructor sets).
@@ -18,7 +18,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tognet.geometry.transforms import rot_z
-from tognet.sim.physics import FINGER_L, FINGER_R, HAND, OBJECT, TABLE, ArmStuck, Landed, PhysicsCore
+from tognet.robot.arms import ArmStuck
+from tognet.sim.physics import FINGER_L, FINGER_R, HAND, OBJECT, TABLE, Landed, PhysicsCore
 
 
 class GripperControl(PhysicsCore):

@@ -35,16 +35,6 @@ class Unstable(Exception):
     """The physics blew up (NaN, a joint too fast, a contact too deep): the trial is invalid."""
 
 
-class ArmStuck(Exception):
-    """An arm cannot do what the trial asks (``reason``: "unreachable", a pose out of its reach, or
-    "joint_limit", reachable only past a joint's range); ``what`` says which step."""
-
-    def __init__(self, reason: str, what: str) -> None:
-        super().__init__(f"{what}: {reason}")
-        self.reason = reason
-        self.what = what
-
-
 class Landed(Exception):
     """The gripper landed on the object on its way down to the grasp."""
 

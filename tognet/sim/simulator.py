@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 
 from tognet.geometry import Camera, Grasp
 from tognet.objects.record import ObjectRecord
+from tognet.robot.arms import ArmStuck
 from tognet.sim.arm import arm_driver
 from tognet.sim.config import SimConfig
 from tognet.sim.depth import DepthRenderer, sample_camera
@@ -42,7 +43,6 @@ from tognet.sim.physics import (
     PROP,
     TABLE,
     TARGET,
-    ArmStuck,
     SimulationError,
     Unstable,
     same_prefix,

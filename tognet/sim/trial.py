@@ -34,9 +34,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tognet.geometry import Grasp
+from tognet.robot.arms import ArmStuck
 from tognet.sim.arm import GRASP_STEPS, plan_reach, reach_steps, task_steps
 from tognet.sim.gripper import GripperControl
-from tognet.sim.physics import IS_TARGET, TOOL_SIDE, ArmStuck, Landed, SimulationError, Unstable
+from tognet.sim.physics import IS_TARGET, TOOL_SIDE, Landed, SimulationError, Unstable
 from tognet.sim.world import BASE_RANGE
 from tognet.tasks import FailureReason, Task, TaskOutcome
 

@@ -7,7 +7,7 @@ Importing it needs only MuJoCo; loading an arm needs robosuite's model files and
 raise :class:`RobotExtraMissing` with the install hint when the extra is missing.
 """
 
-from tognet.sim.robot.arms import (
+from tognet.robot.arms import (
     ARM_NAMES,
     TCP_SITE,
     ArmModel,
@@ -21,7 +21,7 @@ from tognet.sim.robot.arms import (
     load_arm,
     place_arm,
 )
-from tognet.sim.robot.ik import ArmIK, IKResult, IKSettings, IKStatus, JointPath, grasp_frame, joint_path
+from tognet.robot.ik import ArmIK, IKResult, IKSettings, IKStatus, JointPath, grasp_frame, joint_path
 
 __all__ = [
     "ARM_NAMES",

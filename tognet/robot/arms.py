@@ -48,6 +48,16 @@ class HandMount:
     yaw: float = 0.0  # the hand turned by this (rad) about the flange's axis
 
 
+class ArmStuck(Exception):
+    """An arm cannot do what the trial asks (``reason``: "unreachable", a pose out of its reach, or
+    "joint_limit", reachable only past a joint's range); ``what`` says which step."""
+
+    def __init__(self, reason: str, what: str) -> None:
+        super().__init__(f"{what}: {reason}")
+        self.reason = reason
+        self.what = what
+
+
 class RobotExtraMissing(TognetError):
     """The optional ``robot`` extra (robosuite's models, mink) is not installed."""
 

@@ -11,7 +11,7 @@ within its speed limit (the hand falls behind its setpoint and catches up: the a
 plan's, sets the pace) and stops any joint at the margin of its range. The spare degree of freedom of a
 7-joint arm is pulled back towards the trial's first configuration (null space), so the elbow does not
 drift. A move whose setpoint cannot be caught up with is the trial's ``unreachable`` or ``joint_limit``
-(:class:`tognet.sim.physics.ArmStuck`). The kinematics run on the arm's own small model
+(:class:`tognet.robot.arms.ArmStuck`). The kinematics run on the arm's own small model
 (:class:`ArmModel` with the same hand), never on the world's data.
 """
 
@@ -24,9 +24,8 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from tognet.sim.physics import ArmStuck
-from tognet.sim.robot.arms import ArmModel
-from tognet.sim.robot.ik import ArmIK
+from tognet.robot.arms import ArmModel, ArmStuck
+from tognet.robot.ik import ArmIK
 
 
 @dataclass

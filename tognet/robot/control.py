@@ -1,7 +1,7 @@
-"""Joint control of an arm with servos (:func:`tognet.sim.robot.arms.add_servos`): following a joint path
+"""Joint control of an arm with servos (:func:`tognet.robot.arms.add_servos`): following a joint path
 at the speeds its joints allow, then waiting for the servos to catch up.
 
-Each segment of a :class:`tognet.sim.robot.ik.JointPath` is run in ``slack`` times its shortest time, the
+Each segment of a :class:`tognet.robot.ik.JointPath` is run in ``slack`` times its shortest time, the
 servos' setpoints moving at constant joint speeds (within the speed limits, which are also the servos'
 control ranges); the arm lags its setpoints by about kv v / kp while it moves and catches up after.
 """
@@ -15,8 +15,8 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from tognet.sim.robot.arms import ArmModel
-from tognet.sim.robot.ik import JointPath
+from tognet.robot.arms import ArmModel
+from tognet.robot.ik import JointPath
 
 
 @dataclass(frozen=True)

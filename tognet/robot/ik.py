@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tognet.sim.robot.arms import BASE_BODY, EXTRA_HINT, ArmModel, RobotExtraMissing, assets_dir
+from tognet.robot.arms import BASE_BODY, EXTRA_HINT, ArmModel, RobotExtraMissing, assets_dir
 
 try:
     import mink
