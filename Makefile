@@ -9,7 +9,7 @@ STAMP := $(VENV)/.installed
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev,ray]'
+	$(BIN)/python -m pip install --quiet -e '.[dev,ray,serve]'
 	# The robot extra for the arm tests: robosuite only for its model files (tognet never imports it, so not
 	# its own ~500 MB of dependencies) and mink for inverse kinematics.
 	$(BIN)/python -m pip install --quiet --no-deps robosuite==1.5.1
@@ -30,13 +30,14 @@ test: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check tognet tests benchmarks
 
-## Debian/Ubuntu libraries for MuJoCo's headless renderer (the --gif animations): Mesa's EGL and GL.
-## Needs root (or sudo); nothing else in tognet needs system packages.
-SYSTEM_PACKAGES := libegl1 libgl1 libgles2
+## Debian/Ubuntu libraries for MuJoCo's headless renderer (the --gif animations): Mesa's EGL and GL; and
+## Chromium, which the service's test uses to render its /docs page headless. Needs root (or sudo);
+## nothing else in tognet needs system packages.
+SYSTEM_PACKAGES := libegl1 libgl1 libgles2 chromium
 system-deps:
 	@export PATH="$$PATH:/usr/sbin:/sbin"; \
-	if ldconfig -p | grep -q libEGL.so.1 && ldconfig -p | grep -q libGL.so.1; then \
-	  echo "system-deps: EGL and GL libraries already present"; \
+	if ldconfig -p | grep -q libEGL.so.1 && ldconfig -p | grep -q libGL.so.1 && command -v chromium >/dev/null; then \
+	  echo "system-deps: EGL and GL libraries and Chromium already present"; \
 	else \
 	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
 	  $$SUDO apt-get update -qq && $$SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(SYSTEM_PACKAGES); \

@@ -228,6 +228,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("jobs",),
     ("envs", "demo"),
     ("collect", "evaluate"),
+    ("serve",),
     ("cli",),
 )
 LAYER = {f"tognet.{name}": i for i, names in enumerate(LAYERS) for name in names}

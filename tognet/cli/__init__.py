@@ -30,6 +30,7 @@ _COMMAND_MODULES = (
     "tognet.cli.collect",
     "tognet.cli.planning",
     "tognet.cli.evaluate",
+    "tognet.cli.serve",
 )
 
 

@@ -16,23 +16,6 @@ DEPTH_SUFFIXES = (".png", ".npy", ".npz")
 ROBOTS = ("floating", "sawyer", "panda")
 
 
-def parse_object(text: str | None) -> int | tuple[float, float] | None:
-    """``--object``: an index ('2') or a pixel ('320,240'); ValueError naming the option otherwise."""
-    if text is None:
-        return None
-    parts = [p.strip() for p in text.replace(" ", ",").split(",") if p.strip()]
-    try:
-        if len(parts) == 1 and parts[0].lstrip("#").isdigit():
-            return int(parts[0].lstrip("#"))
-        if len(parts) == 2:
-            u, v = float(parts[0]), float(parts[1])
-            if math.isfinite(u) and math.isfinite(v):
-                return (u, v)
-    except ValueError:
-        pass
-    raise ValueError(f"--object takes an object's index (0, 1, ...) or a pixel U,V on it, got '{text}'")
-
-
 def _vec(values: list[float] | tuple[float, ...], digits: int = 4) -> str:
     return "(" + ", ".join(f"{v:+.{digits}f}" for v in values) + ")"
 
@@ -95,7 +78,7 @@ def plan_cmd(
     succeeded less often than not on held-out scenes; with --robot, the arm's trajectory too.
     """
     from tognet.planning.camera import load_camera_pose, load_intrinsics
-    from tognet.planning.user import UserPlanConfig, UserPlanner
+    from tognet.planning.user import UserPlanConfig, UserPlanner, parse_object
 
     choice = parse_object(object_)
     if task not in TASK_NAMES:

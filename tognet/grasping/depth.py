@@ -164,6 +164,12 @@ def prepare_depth(depth: NDArray | DepthScene, camera: Camera | None = None) -> 
     return DepthScene(camera, valid, filled, height_map(filled, camera), holes)
 
 
+#: The depth formats read, by suffix: (the file's first bytes, what the file should be).
+DEPTH_FORMATS = {".npy": (b"\x93NUMPY", "a .npy file (no NumPy header)"),
+                 ".npz": (b"PK", "a .npz file (not a zip archive)"),
+                 ".png": (b"\x89PNG\r\n\x1a\n", "a PNG image (no PNG signature)")}
+
+
 def load_depth_file(path: str | Path) -> NDArray[np.float32]:
     """Read a depth image from .npy / .npz (metres) or a 16-bit .png (millimetres).
 
@@ -173,48 +179,56 @@ def load_depth_file(path: str | Path) -> NDArray[np.float32]:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"depth file not found: {path}")
-    suffix = path.suffix.lower()
-    with open(path, "rb") as fh:
-        head = fh.read(8)
-    magic = {".npy": (b"\x93NUMPY", "a .npy file (no NumPy header)"),
-             ".npz": (b"PK", "a .npz file (not a zip archive)"),
-             ".png": (b"\x89PNG\r\n\x1a\n", "a PNG image (no PNG signature)")}.get(suffix)
-    if magic is not None and not head.startswith(magic[0]):
-        what = "empty" if not head else "damaged, or another format renamed?"
-        raise DepthImageError(f"{path}: not {magic[1]}: {what}")
+    return load_depth_bytes(path.read_bytes(), path.suffix.lower(), str(path))
+
+
+def depth_suffix(data: bytes) -> str | None:
+    """The format of depth image bytes by their first bytes (".png", ".npy", ".npz"), None if none."""
+    return next((suffix for suffix, (magic, _) in DEPTH_FORMATS.items() if data.startswith(magic)), None)
+
+
+def load_depth_bytes(data: bytes, suffix: str, where: str = "depth image") -> NDArray[np.float32]:
+    """A depth image from the bytes of a file of type ``suffix`` (as :func:`load_depth_file`; ``where``
+    names it in errors)."""
+    import io
+
+    magic = DEPTH_FORMATS.get(suffix)
+    if magic is not None and not data.startswith(magic[0]):
+        what = "empty" if not data else "damaged, or another format renamed?"
+        raise DepthImageError(f"{where}: not {magic[1]}: {what}")
     try:
         if suffix == ".npy":
-            arr = np.load(path, allow_pickle=False)
+            arr = np.load(io.BytesIO(data), allow_pickle=False)
         elif suffix == ".npz":
-            with np.load(path, allow_pickle=False) as data:
-                keys = list(data.keys())
+            with np.load(io.BytesIO(data), allow_pickle=False) as npz:
+                keys = list(npz.keys())
                 key = "depth" if "depth" in keys else (keys[0] if len(keys) == 1 else None)
                 if key is None:
                     raise DepthImageError(
-                        f"{path}: .npz holds {keys}; expected one array or an array named 'depth'"
+                        f"{where}: .npz holds {keys}; expected one array or an array named 'depth'"
                     )
-                arr = data[key]
+                arr = npz[key]
         elif suffix == ".png":
             from PIL import Image
 
-            with Image.open(path) as img:
+            with Image.open(io.BytesIO(data)) as img:
                 if img.mode not in ("I;16", "I;16B", "I;16L", "I"):
                     raise DepthImageError(
-                        f"{path}: PNG mode {img.mode!r} is not a 16-bit depth image (millimetres expected)"
+                        f"{where}: PNG mode {img.mode!r} is not a 16-bit depth image (millimetres expected)"
                     )
                 arr = np.asarray(img).astype(np.float32) / 1000.0
         else:
-            raise DepthImageError(f"{path}: unsupported depth file type {suffix!r} (use .npy, .npz or .png)")
+            raise DepthImageError(f"{where}: unsupported depth file type {suffix!r} (use .npy, .npz or .png)")
     except DepthImageError:
         raise
     except (OSError, ValueError, EOFError) as exc:
         text = str(exc)
         if "allow_pickle" in text or "pickled" in text:  # numpy's advice to unpickle is not ours to give
-            raise DepthImageError(f"{path}: holds Python objects, not a numeric depth array") from None
-        raise DepthImageError(f"{path}: cannot read depth image, damaged or truncated? ({text})") from None
+            raise DepthImageError(f"{where}: holds Python objects, not a numeric depth array") from None
+        raise DepthImageError(f"{where}: cannot read depth image, damaged or truncated? ({text})") from None
     arr = np.asarray(arr)
     if arr.dtype.kind in "iu" and suffix != ".png":
         arr = arr.astype(np.float32) / 1000.0
     if arr.dtype.kind not in "fiu":
-        raise DepthImageError(f"{path}: depth image must be numeric, got dtype {arr.dtype}")
+        raise DepthImageError(f"{where}: depth image must be numeric, got dtype {arr.dtype}")
     return arr.astype(np.float32, copy=False)

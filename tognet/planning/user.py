@@ -450,6 +450,24 @@ def plan_image(depth: Any, intrinsics: Any, task: str, camera_pose: Any = None, 
     return planner.plan(depth, intrinsics, camera_pose, reference=reference, seed=seed, object=object)
 
 
+def parse_object(text: str | None) -> int | tuple[float, float] | None:
+    """The object to plan on, from text (``tognet plan --object``, the service's ``object``): an index ('2')
+    or a pixel ('320,240'); ValueError naming the option otherwise."""
+    if text is None:
+        return None
+    parts = [p.strip() for p in text.replace(" ", ",").split(",") if p.strip()]
+    try:
+        if len(parts) == 1 and parts[0].lstrip("#").isdigit():
+            return int(parts[0].lstrip("#"))
+        if len(parts) == 2:
+            u, v = float(parts[0]), float(parts[1])
+            if math.isfinite(u) and math.isfinite(v):
+                return (u, v)
+    except ValueError:
+        pass
+    raise ValueError(f"--object takes an object's index (0, 1, ...) or a pixel U,V on it, got '{text}'")
+
+
 # --- the models -----------------------------------------------------------------------------------------
 #: The shipped model of each kind of model for a task (tognet/models/<name>.pt).
 def _shipped_name(kind: str, task: str) -> str:
