@@ -85,7 +85,8 @@ def latency(depth: Path, intr: Path, n: int, method: str | None) -> None:
                 remote.append(t2 - t1)
         lo, re_ = 1000 * np.median(local), 1000 * np.median(remote)
         print(f"latency, one core, {n} plans each, interleaved: in-process median {lo:.1f} ms, service "
-              f"median {re_:.1f} ms (p90 {1000 * np.percentile(remote, 90):.1f}); ratio {re_ / lo:.2f}", flush=True)
+              f"median {re_:.1f} ms (p90 {1000 * np.percentile(remote, 90):.1f}); ratio {re_ / lo:.2f}",
+              flush=True)
     finally:
         os.kill(proc.pid, signal.SIGTERM)
         proc.wait(30)
