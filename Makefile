@@ -9,7 +9,7 @@ STAMP := $(VENV)/.installed
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev,ray,serve]'
+	$(BIN)/python -m pip install --quiet -e '.[dev,ray,serve,ros,rerun]'
 	# The robot extra for the arm tests: robosuite only for its model files (tognet never imports it, so not
 	# its own ~500 MB of dependencies) and mink for inverse kinematics.
 	$(BIN)/python -m pip install --quiet --no-deps robosuite==1.5.1

@@ -27,11 +27,24 @@ def _check_output(path: Path | None, suffix: str, option: str) -> None:
 
 @user_errors
 def plan_cmd(
-    depth: Path = typer.Option(
-        ..., "--depth", help="Depth image: 16-bit .png (millimetres, 0 = no reading), .npy/.npz (float "
-        "metres with NaN or 0 holes, or integer millimetres)."),
-    intrinsics: Path = typer.Option(
-        ..., "--intrinsics", help="Intrinsics JSON: width, height, fx, fy, cx, cy (pixels); see the README."),
+    depth: Path | None = typer.Option(
+        None, "--depth", help="Depth image: 16-bit .png (millimetres, 0 = no reading), .npy/.npz (float "
+        "metres with NaN or 0 holes, or integer millimetres). Or --bag."),
+    intrinsics: Path | None = typer.Option(
+        None, "--intrinsics", help="Intrinsics JSON: width, height, fx, fy, cx, cy (pixels); see the README. "
+        "With --bag, this or --info-topic."),
+    bag: Path | None = typer.Option(
+        None, "--bag", help="A ROS 1 bag (.bag) or ROS 2 bag (its folder; sqlite3 or MCAP) to read the depth "
+        "image from (pip install 'tognet\\[ros]'), instead of --depth."),
+    depth_topic: str | None = typer.Option(
+        None, "--depth-topic", help="With --bag: the sensor_msgs/Image topic (16UC1 millimetres or 32FC1 "
+        "metres)."),
+    info_topic: str | None = typer.Option(
+        None, "--info-topic", help="With --bag: the sensor_msgs/CameraInfo topic for the intrinsics (else "
+        "--intrinsics)."),
+    at: float | None = typer.Option(
+        None, "--at", min=0, help="With --bag: seconds from the bag's start; the depth image nearest to it "
+        "(default: the first)."),
     task: str = typer.Option(..., "--task", help=f"The task: {', '.join(TASK_NAMES)}."),
     camera_pose: Path | None = typer.Option(
         None, "--camera-pose", help="Camera pose JSON {\"world_from_camera\": 4 x 4} in a frame whose z = 0 "
@@ -77,7 +90,7 @@ def plan_cmd(
     (ranked the method's way), timing, and a low-confidence warning where the method's plans of that score
     succeeded less often than not on held-out scenes; with --robot, the arm's trajectory too.
     """
-    from tognet.planning.camera import load_camera_pose, load_intrinsics
+    from tognet.planning.camera import load_camera_pose
     from tognet.planning.user import UserPlanConfig, UserPlanner, parse_object
 
     choice = parse_object(object_)
@@ -87,19 +100,14 @@ def plan_cmd(
         raise ValueError("--base-pose places the --robot arm: name the arm with --robot sawyer|panda")
     _check_output(out, ".json", "--out")
     _check_output(overlay, ".png", "--overlay")
-    if not depth.is_file():
-        folder = " (it is a folder)" if depth.is_dir() else ""
-        raise FileNotFoundError(f"depth file not found: {depth}{folder}")
-    if depth.suffix.lower() not in DEPTH_SUFFIXES:
-        raise ValueError(f"--depth {depth}: unsupported file type '{depth.suffix}' (use .png, .npy or .npz)")
     if reference is not None and not all(math.isfinite(v) for v in reference):
         raise ValueError(f"--reference takes 3 finite numbers, got {' '.join(map(str, reference))}")
+    source = _source(depth, intrinsics, bag, depth_topic, info_topic, at)
     arm = _arm_config(robot, base_pose)
     cfg = UserPlanConfig.load(config) if config is not None else UserPlanConfig()
     cfg = cfg.replace(top=top, seed=seed)
-    k = load_intrinsics(intrinsics)
     pose = load_camera_pose(camera_pose) if camera_pose is not None else None
-    image, k, pose = UserPlanner.read_inputs(depth, k, pose)  # every input checked before the model loads
+    image, k, pose = _read_image(source, pose)  # every input checked before the model loads
     planner = UserPlanner(task, checkpoint, cfg, robot=arm, method=method)
     plan = planner.plan(image, k, pose, reference=reference, object=choice)
     png = None
@@ -119,6 +127,53 @@ def plan_cmd(
         written.append(str(atomic_write_bytes(overlay, png, fsync=False)))
     if written:
         typer.echo("wrote " + ", ".join(written))
+
+
+def _source(depth: Path | None, intrinsics: Path | None, bag: Path | None, depth_topic: str | None,
+            info_topic: str | None, at: float | None) -> dict[str, Any]:
+    """Where the image and the intrinsics come from (--depth and --intrinsics, or --bag and its topics),
+    checked: one line for a missing, doubled or misplaced option."""
+    if (depth is None) == (bag is None):
+        raise ValueError("give the depth image as --depth FILE or as --bag BAG --depth-topic TOPIC (one of "
+                         "them)")
+    if bag is None:
+        extra = [o for o, v in (("--depth-topic", depth_topic), ("--info-topic", info_topic), ("--at", at))
+                 if v is not None]
+        if extra:
+            raise ValueError(f"{', '.join(extra)} read(s) a --bag; with --depth give --intrinsics")
+        if intrinsics is None:
+            raise ValueError("--depth needs --intrinsics FILE (the camera's width, height, fx, fy, cx, cy)")
+        assert depth is not None
+        if not depth.is_file():
+            folder = " (it is a folder)" if depth.is_dir() else ""
+            raise FileNotFoundError(f"depth file not found: {depth}{folder}")
+        if depth.suffix.lower() not in DEPTH_SUFFIXES:
+            raise ValueError(f"--depth {depth}: unsupported file type '{depth.suffix}' (use .png, .npy or "
+                             ".npz)")
+        return {"depth": depth, "intrinsics": intrinsics}
+    if depth_topic is None:
+        raise ValueError("--bag needs --depth-topic TOPIC (a sensor_msgs/Image topic of the bag)")
+    if (intrinsics is None) == (info_topic is None):
+        raise ValueError("with --bag give the intrinsics as --info-topic TOPIC (a sensor_msgs/CameraInfo "
+                         "topic) or --intrinsics FILE (one of them)")
+    return {"bag": bag, "depth_topic": depth_topic, "info_topic": info_topic, "at": at,
+            "intrinsics": intrinsics}
+
+
+def _read_image(source: dict[str, Any], pose: Any) -> tuple[Any, Any, Any]:
+    """The image (float metres, NaN holes), the intrinsics and the pose, from files or a bag."""
+    from tognet.planning.camera import load_intrinsics
+    from tognet.planning.user import UserPlanner
+
+    if "bag" not in source:
+        return UserPlanner.read_inputs(source["depth"], load_intrinsics(source["intrinsics"]), pose)
+    from tognet.planning.bags import read_bag
+
+    frame = read_bag(source["bag"], source["depth_topic"], source["info_topic"], source["at"])
+    k = frame.intrinsics if frame.intrinsics is not None else load_intrinsics(source["intrinsics"])
+    typer.echo(f"bag: {source['depth_topic']} at {frame.time:.3f} s, {frame.depth.shape[1]} x "
+               f"{frame.depth.shape[0]} {frame.depth.dtype}", err=True)
+    return UserPlanner.read_inputs(frame.depth, k, pose)
 
 
 def _arm_config(robot: str | None, base_pose: Path | None) -> Any:
