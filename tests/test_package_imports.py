@@ -227,7 +227,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("planning",),
     ("jobs",),
     ("envs", "demo"),
-    ("collect", "evaluate"),
+    ("collect", "evaluate", "viz"),
     ("serve",),
     ("cli",),
 )

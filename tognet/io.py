@@ -33,6 +33,20 @@ def atomic_writer(path: str | Path, *, fsync: bool = True) -> Iterator[BinaryIO]
         tmp.unlink(missing_ok=True)
 
 
+@contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """A temporary path beside ``path`` for a writer that opens files itself (e.g. a recording library):
+    renamed over ``path`` when the block ends without an error, deleted when it raises."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}{path.suffix}")
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
 def atomic_write_bytes(path: str | Path, data: bytes, *, fsync: bool = True) -> Path:
     """Write ``data`` to ``path`` whole or not at all (:func:`atomic_writer`); returns the path."""
     with atomic_writer(path, fsync=fsync) as fh:
@@ -59,4 +73,5 @@ def file_digest(path: str | Path | None) -> str | None:
     return None if path is None else sha256_file(path)[:16]
 
 
-__all__ = ["atomic_write_bytes", "atomic_write_text", "atomic_writer", "file_digest", "sha256_file"]
+__all__ = ["atomic_path", "atomic_write_bytes", "atomic_write_text", "atomic_writer", "file_digest",
+           "sha256_file"]

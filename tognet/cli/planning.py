@@ -63,6 +63,10 @@ def plan_cmd(
     out: Path | None = typer.Option(None, "--out", help="Write the whole plan here (.json)."),
     overlay: Path | None = typer.Option(None, "--overlay",
                                         help="Draw the plan on the depth image here (.png)."),
+    rerun: Path | None = typer.Option(
+        None, "--rerun", help="Write a Rerun recording of the plan here (.rrd; pip install "
+        "'tognet\\[rerun]'): the depth as a point cloud, the objects, the candidates by score, the grasp, "
+        "the motion, the arm."),
     reference: tuple[float, float, float] | None = typer.Option(
         None, "--reference", metavar="X Y Z", help=f"The task's reference point ({reference_points()}), "
         "world frame with --camera-pose, else table frame: the start pose is then given absolutely too."),
@@ -100,6 +104,11 @@ def plan_cmd(
         raise ValueError("--base-pose places the --robot arm: name the arm with --robot sawyer|panda")
     _check_output(out, ".json", "--out")
     _check_output(overlay, ".png", "--overlay")
+    _check_output(rerun, ".rrd", "--rerun")
+    if rerun is not None:
+        from tognet.viz.rerun import require_rerun
+
+        require_rerun()
     if reference is not None and not all(math.isfinite(v) for v in reference):
         raise ValueError(f"--reference takes 3 finite numbers, got {' '.join(map(str, reference))}")
     source = _source(depth, intrinsics, bag, depth_topic, info_topic, at)
@@ -125,6 +134,14 @@ def plan_cmd(
         from tognet.io import atomic_write_bytes
 
         written.append(str(atomic_write_bytes(overlay, png, fsync=False)))
+    if rerun is not None:
+        from tognet.io import atomic_path
+        from tognet.tasks import get_task
+        from tognet.viz.rerun import log_plan
+
+        with atomic_path(rerun) as tmp:
+            log_plan(tmp, plan, image, cfg.antipodal.max_width, get_task(task), reference)
+        written.append(str(rerun))
     if written:
         typer.echo("wrote " + ", ".join(written))
 

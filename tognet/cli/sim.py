@@ -98,6 +98,9 @@ def sim_command(
     trial_seed: int = typer.Option(0, min=0, help="Execution-noise seed of the trial."),
     gif: Path | None = typer.Option(None, help="Write an animation of the episode here (.gif; needs "
                                     "MuJoCo's offscreen renderer, EGL on a headless machine)."),
+    rerun: Path | None = typer.Option(
+        None, "--rerun", help="Write a Rerun recording of the episode here (.rrd; pip install "
+        "'tognet\\[rerun]'): the tool, props and gripper over time and the outcome."),
     depth_png: Path | None = typer.Option(
         None, help="Write the depth image here as a 16-bit PNG in millimetres, with "
         "<stem>.intrinsics.json and <stem>.pose.json beside it: what `tognet plan` reads."),
@@ -119,6 +122,11 @@ def sim_command(
     from tognet.sim import SimConfig, Simulator
 
     _check_inputs(task, grasp, action, gif, depth_png)
+    if rerun is not None:
+        from tognet.viz.rerun import require_rerun
+
+        out_file(rerun, "--rerun", ".rrd")
+        require_rerun()
     cfg = robot_config(SimConfig.load(config) if config else SimConfig(), robot)
     if gif is not None:
         from tognet.sim.render import check_renderer
@@ -137,11 +145,7 @@ def sim_command(
             _write_depth(depth_png, obs, task)
         g, a = _grasp_and_action(sim, cfg, task, grasp, action, trial_seed, obj.object_id if objects is None
                                  else None)
-        if recorder is not None:
-            with sim.recording(recorder):
-                result = sim.execute(g, a, trial_seed)
-        else:
-            result = sim.execute(g, a, trial_seed)
+        result, trace = _run(sim, g, a, trial_seed, recorder, rerun is not None)
         typer.echo(
             f"grasp_success={result.grasp_success} task_success={result.task_success} "
             f"valid={result.valid} failure={result.failure.value}"
@@ -152,6 +156,30 @@ def sim_command(
             recorder.save(gif)
             recorder.close()
             typer.echo(f"animation ({len(recorder.frames)} frames captured) -> {gif}")
+        if trace is not None and rerun is not None:
+            from tognet.io import atomic_path
+            from tognet.viz.rerun import log_episode
+
+            with atomic_path(rerun) as tmp:
+                log_episode(tmp, trace, result, g.as_array(), a)
+            typer.echo(f"recording ({len(trace.times)} poses of {len(trace.bodies)} bodies) -> {rerun}")
+
+
+def _run(sim: Any, grasp: Any, action: Any, seed: int, recorder: Any, trace: bool) -> tuple[Any, Any]:
+    """The trial, with the GIF's recorder and (``trace``) a pose trace attached: (result, the trace)."""
+    from tognet.sim.trace import PoseTrace
+
+    poses = PoseTrace(sim) if trace else None
+    hooks = [h for h in (recorder, poses) if h is not None]
+
+    def record(s: Any) -> None:
+        for hook in hooks:
+            hook(s)
+
+    if not hooks:
+        return sim.execute(grasp, action, seed), None
+    with sim.recording(record):
+        return sim.execute(grasp, action, seed), poses
 
 
 def _check_inputs(task: str, grasp: Any, action: Any, gif: Path | None, depth_png: Path | None) -> None:

@@ -13,12 +13,12 @@ other models there is no calibrated warning (a ``low_score`` of one's own still 
 
 from __future__ import annotations
 
-import hashlib
 import json
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
+from tognet.io import sha256_file
 from tognet.models import MODELS_DIR
 from tognet.tasks import GRASP_ONLY
 
@@ -46,11 +46,7 @@ def calibration(path: Path | None = None) -> dict[str, Any]:
 
 @lru_cache(maxsize=32)
 def _digest(path: str, size: int, mtime: float) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
+    return sha256_file(path)
 
 
 def file_digest(path: str | Path) -> str | None:

@@ -137,6 +137,8 @@ class PolicyPlanner:
         t5 = time.perf_counter()
         timing.update(rate=t5 - t4, total=t5 - t0)
         (choice, sources) = chosen[0][2]
+        if alternatives and "ranked" in view.cache:
+            info["ranked"] = view.cache["ranked"]
         return Plan(self.name, grasps[0], actions[0], self._scores(view, grasps[0], choice), timing,
                     {"candidates": len(view.candidates), "grasp_source": sources[0],
                      "action_source": sources[1], **info}, own[0],
@@ -186,6 +188,7 @@ class PolicyPlanner:
             return
         tries = reach.config.tries if reach is not None else 0
         ranked = ranked_grasps(self.grasp_policy, view, rng, tries + 1 + alternatives)
+        view.cache["ranked"] = ranked  # what the method ranked, for pictures (tognet plan --rerun)
         keep = np.ones(len(ranked.grasps), dtype=bool)
         if alternatives:
             keep = _spaced(first.grasp, ranked.grasps, spacing or ALTERNATIVES)

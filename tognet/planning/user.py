@@ -282,7 +282,7 @@ class UserPlanner:
             object={**target.describe(), "why": why}, candidates=len(cands), timing=timing,
             warnings=warnings, checkpoint=self.checkpoint, seed=seed, intrinsics=k, robot=arm,
             method=self.method, models=dict(self.paths), score=self.row.score if self.row else "",
-            confidence=confidence,
+            confidence=confidence, scored=_scored(plan, cands, self.row),
         )
 
     def _plan_view(self, scene: DepthScene, cands: GraspCandidates, reach: FramedReach | None,
@@ -601,6 +601,16 @@ def _grasp_frames(table_grasps: NDArray[np.float64], camera_from_table: NDArray[
     gripper[:, :3, 3] = table_grasps[:, :3]
     gripper[:, 3, 3] = 1.0
     return camera_from_table[None] @ gripper
+
+
+def _scored(plan: Plan, cands: GraspCandidates, row: Method | None
+            ) -> tuple[NDArray[np.float64], NDArray[np.float64], str]:
+    """What the method ranked and by what score, else the candidates by antipodal quality."""
+    ranked = plan.info.get("ranked")
+    if ranked is not None and len(ranked.grasps):
+        return (np.asarray(ranked.grasps, np.float64), np.asarray(ranked.score, np.float64),
+                row.score if row is not None else "score")
+    return np.asarray(cands.grasps, np.float64), np.asarray(cands.quality, np.float64), "antipodal quality"
 
 
 def _frame_from_table(view: _TableView, pose: NDArray[np.float64] | None) -> NDArray[np.float64]:

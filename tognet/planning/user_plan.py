@@ -153,7 +153,9 @@ class UserPlan:
     ``method``: the method that planned (a row of :mod:`tognet.planning.methods`), ``models``: the checkpoint
     of each model it used (by what it is: grasp, task, search; ``checkpoint``: the first), ``score``: what
     its score is, ``confidence``: the low-confidence threshold the plan was held against and where it comes
-    from. ``timing``: seconds per stage (read, table, objects, candidates, then the method's: grasp, action,
+    from. ``scored``: the grasps the method ranked (table frame, (N, 4)) with its scores and what those are
+    (the antipodal candidates with their antipodal quality where it ranked nothing more); not in the JSON.
+    ``timing``: seconds per stage (read, table, objects, candidates, then the method's: grasp, action,
     alternatives, rate, with an arm reach) and ``total`` (the models' loading is not part of it).
     ``warnings``: one line each (several objects, low confidence, ...). ``objects``:
     every region seen standing on the table (:meth:`tognet.planning.camera.TableObject.describe`: those
@@ -176,6 +178,7 @@ class UserPlan:
     models: dict[str, str] = field(default_factory=dict)
     score: str = ""
     confidence: dict[str, Any] = field(default_factory=dict)
+    scored: tuple[NDArray[np.float64], NDArray[np.float64], str] | None = None
     seed: int = 0
     intrinsics: CameraIntrinsics | None = None
     robot: ArmPlan | None = None
