@@ -113,8 +113,18 @@ def test_bad_shards_named_or_skipped(tmp_path):
     good = EpisodeStream([d], "t").count("all")
     shard = d / "shard-00001.npz"
     data = shard.read_bytes()
-    # crops corrupted, small columns intact: the listing (and the counts) still work, reading fails
     _corrupt_member(shard, "crop.npy")
+    # its bytes are not the ones the manifest recorded: named as soon as the stream lists it
+    with pytest.raises(DatasetError, match=r"shard-00001\.npz: corrupt, truncated or replaced"):
+        EpisodeStream([d], "t")
+    with pytest.warns(UserWarning, match=r"shard-00001\.npz"):
+        assert EpisodeStream([d], "t", skip_bad=True).count("all") == good - 50
+    # a dataset whose manifest records no digests (older tognet): crops corrupted, small columns intact:
+    # the listing (and the counts) still work, reading fails
+    manifest = json.loads((d / "manifest.json").read_text())
+    for entry in manifest["shards"]:
+        entry.pop("sha256", None)
+    (d / "manifest.json").write_text(json.dumps(manifest))
     stream = EpisodeStream([d], "t")
     assert stream.count("all") == good
     with pytest.raises(DatasetError, match=r"shard-00001\.npz.*(corrupt|truncated)"):
@@ -143,8 +153,14 @@ def test_rewritten_shard_detected(tmp_path):
     other = tmp_path / "o"
     write_synthetic_dataset(other, task="t", n=60, shard_size=60, seed=4, n_objects=8)
     (d / "shard-00000.npz").write_bytes((other / "shard-00000.npz").read_bytes())
-    with pytest.raises(DatasetError, match=r"shard-00000\.npz: holds 60 all episodes, 50 when"):
+    with pytest.raises(DatasetError, match=r"shard-00000\.npz: corrupt, truncated or replaced"):
         list(stream.batches("all", 16))
+    manifest = json.loads((d / "manifest.json").read_text())  # without digests: its count gives it away
+    for entry in manifest["shards"]:
+        entry.pop("sha256", None)
+    (d / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(DatasetError, match=r"shard-00000\.npz: holds 60 episodes, its manifest says 50"):
+        list(EpisodeStream([d], "t").batches("all", 16))
 
 
 # -- memory ------------------------------------------------------------------------------------------

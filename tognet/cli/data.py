@@ -74,7 +74,7 @@ def data_info_cmd(
             typer.echo(f"bad: {b}")
         if bad:
             raise DatasetError(f"{len(bad)} bad shard(s) in {folder}")
-        typer.echo("all shards readable")
+        typer.echo("all shards readable, each matching its manifest (sha256 and count)")
 
 
 @user_errors

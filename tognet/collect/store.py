@@ -24,7 +24,7 @@ import numpy as np
 
 from tognet.data.episodes import read_columns
 from tognet.data.format import MANIFEST, DatasetError, check_columns, summarise
-from tognet.data.manifest import new_manifest, read_manifest, save_config, write_manifest
+from tognet.data.manifest import new_manifest, read_manifest, save_config, verify_shard, write_manifest
 from tognet.data.writer import write_shard
 from tognet.io import sha256_file
 
@@ -74,9 +74,17 @@ class RoundStore:
 
     def _recover(self) -> None:
         for job, entry in list(self._entries.items()):
-            if not (self.folder / entry["file"]).is_file():
-                warnings.warn(f"{self.folder / entry['file']}: listed in the manifest but missing; its job "
-                              "runs again", stacklevel=3)
+            path = self.folder / entry["file"]
+            if not path.is_file():
+                warnings.warn(f"{path}: listed in the manifest but missing; its job runs again", stacklevel=3)
+                del self._entries[job]
+                continue
+            try:
+                verify_shard(path)
+            except DatasetError as exc:  # corrupt: set aside, and collected again like a missing one
+                aside = path.with_name(path.name + ".corrupt")
+                path.rename(aside)
+                warnings.warn(f"{exc}; moved aside to {aside.name}, its job runs again", stacklevel=3)
                 del self._entries[job]
         for path in sorted(self.folder.glob("shard-*.npz")):
             job = job_of(path.name)

@@ -39,7 +39,7 @@ from tognet.data.format import (
     EpisodeArrays,
     check_column,
 )
-from tognet.data.manifest import read_manifest
+from tognet.data.manifest import read_manifest, verify_shard
 
 
 def read_shard(path: str | Path) -> tuple[EpisodeArrays, dict[str, Any]]:
@@ -50,13 +50,15 @@ def read_shard(path: str | Path) -> tuple[EpisodeArrays, dict[str, Any]]:
 
 def read_columns(path: str | Path, fields: Sequence[str]) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """Some columns of one shard (checked, converted to their declared dtypes) and its metadata. Reading
-    only small columns (``object_id``, labels) skips decompressing the crops."""
+    only small columns (``object_id``, labels) skips decompressing the crops. A shard its folder's manifest
+    lists is checked against the manifest first: its sha256 and its number of episodes (DatasetError)."""
     path = Path(path)
     unknown = [f for f in fields if f not in FIELDS]
     if unknown:
         raise ValueError(f"unknown episode field(s) {unknown}; known: {list(FIELDS)}")
     if not path.is_file():
         raise DatasetError(f"{path}: shard file not found")
+    entry = verify_shard(path)
     try:
         with np.load(path, allow_pickle=False) as npz:
             version = int(npz["format_version"]) if "format_version" in npz.files else None
@@ -80,6 +82,8 @@ def read_columns(path: str | Path, fields: Sequence[str]) -> tuple[dict[str, np.
         checked = {name: check_column(name, arr, n) for name, arr in columns.items()}
     except ValueError as exc:
         raise DatasetError(f"{path}: {exc}") from exc
+    if entry is not None and entry.get("count") is not None and int(entry["count"]) != n:
+        raise DatasetError(f"{path}: holds {n} episodes, its manifest says {entry['count']}")
     return checked, meta
 
 

@@ -17,7 +17,7 @@ from tognet.data.format import (
     READABLE_VERSIONS,
     DatasetError,
 )
-from tognet.io import atomic_write_bytes
+from tognet.io import atomic_write_bytes, sha256_file
 
 
 def read_manifest(folder: Path) -> dict[str, Any] | None:
@@ -35,6 +35,45 @@ def read_manifest(folder: Path) -> dict[str, Any] | None:
     if version not in READABLE_VERSIONS:
         raise DatasetError(f"{path}: format_version {version!r}, this tognet reads {list(READABLE_VERSIONS)}")
     return manifest
+
+
+_ENTRIES: dict[tuple[str, int, int], dict[str, Mapping[str, Any]]] = {}
+_VERIFIED: set[tuple[str, int, int, str]] = set()
+
+
+def manifest_entry(path: Path) -> Mapping[str, Any] | None:
+    """The manifest's entry of the shard at ``path`` (None when its folder has no manifest or the manifest
+    does not list it); the manifest is read again only when it changes."""
+    manifest_path = path.parent / MANIFEST
+    try:
+        st = manifest_path.stat()
+    except OSError:
+        return None
+    key = (str(manifest_path), st.st_size, st.st_mtime_ns)
+    if key not in _ENTRIES:
+        manifest = read_manifest(path.parent) or {"shards": []}
+        _ENTRIES.clear()
+        _ENTRIES[key] = {str(e.get("file")): e for e in manifest["shards"] if isinstance(e, dict)}
+    return _ENTRIES[key].get(path.name)
+
+
+def verify_shard(path: Path) -> Mapping[str, Any] | None:
+    """DatasetError when a shard's bytes are not the ones its manifest recorded (its sha256): corrupt,
+    truncated, or another shard put in its place. Each file is hashed once while it is unchanged. Returns
+    the manifest's entry (None for a shard no manifest lists: nothing to check it against)."""
+    entry = manifest_entry(path)
+    if entry is None or not entry.get("sha256"):
+        return entry
+    st = path.stat()
+    key = (str(path), st.st_size, st.st_mtime_ns, str(entry["sha256"]))
+    if key not in _VERIFIED:
+        digest = sha256_file(path)
+        if digest != entry["sha256"]:
+            raise DatasetError(f"{path}: corrupt, truncated or replaced: its bytes do not match the sha256 "
+                               f"its manifest records ({digest[:16]} read, {str(entry['sha256'])[:16]} "
+                               "recorded)")
+        _VERIFIED.add(key)
+    return entry
 
 
 def manifest_totals(shards: Sequence[Mapping[str, Any]]) -> dict[str, Any]:

@@ -30,6 +30,8 @@ from __future__ import annotations
 
 import datetime as _dt
 import functools
+import hashlib
+import json
 import subprocess
 from pathlib import Path
 from typing import Any
@@ -39,7 +41,7 @@ import torch
 import tognet
 from tognet.config import ConfigError
 from tognet.errors import TognetError
-from tognet.io import atomic_writer
+from tognet.io import atomic_writer, sha256_file
 from tognet.model.config import ArchConfig, TrainConfig
 from tognet.model.network import TOGNet
 from tognet.tasks import GRASP_ONLY
@@ -83,6 +85,54 @@ def code_version() -> dict[str, Any]:
             "torch": str(torch.__version__)}
 
 
+#: Payload keys outside the content digest: the digest itself, the time of writing, and what loading adds.
+_UNDIGESTED = ("digest", "created", "config_obj", "crop_config_obj", "defaults_filled", "verified")
+
+
+def content_digest(payload: dict[str, Any]) -> str:
+    """The sha256 of a checkpoint's content: its settings and descriptions (canonical JSON) and every
+    tensor's name, dtype, shape and bytes. The time of writing is left out, so the same training gives
+    the same digest."""
+    h = hashlib.sha256()
+    meta = {k: v for k, v in payload.items() if k not in _UNDIGESTED and k != "state_dict"}
+    h.update(json.dumps(meta, sort_keys=True, default=str).encode())
+    for name in sorted(payload.get("state_dict", {})):
+        t = payload["state_dict"][name].detach().cpu().contiguous()
+        h.update(f"{name}|{t.dtype}|{tuple(t.shape)}|".encode())
+        h.update(t.reshape(-1).view(torch.uint8).numpy().tobytes())
+    return h.hexdigest()
+
+
+def _verify(path: Path, payload: dict[str, Any]) -> str:
+    """How the checkpoint's bytes were checked ("digest", "shipped"; "none" for one written before
+    checkpoints carried a digest); CheckpointError when they do not match."""
+    recorded = payload.get("digest")
+    if recorded is not None:
+        if content_digest(payload) != recorded:
+            raise CheckpointError(f"{path}: its content does not match the digest written into it (corrupt, "
+                                  "or edited?); use another copy or retrain")
+        return "digest"
+    shipped = _shipped_digest(path)
+    if shipped is not None:
+        if sha256_file(path) != shipped:
+            raise CheckpointError(f"{path}: a shipped model whose bytes do not match the sha256 in "
+                                  f"{path.with_suffix('.json').name} (corrupt?); reinstall tognet")
+        return "shipped"
+    return "none"
+
+
+def _shipped_digest(path: Path) -> str | None:
+    """The sha256 recorded for a shipped model (tognet/models/<name>.json), None for any other file."""
+    from tognet.models import MODELS_DIR
+
+    if path.resolve().parent != MODELS_DIR or not path.with_suffix(".json").is_file():
+        return None
+    try:
+        return json.loads(path.with_suffix(".json").read_text()).get("sha256")
+    except (OSError, ValueError):
+        return None
+
+
 def save_checkpoint(
     path: str | Path,
     *,
@@ -118,6 +168,7 @@ def save_checkpoint(
         "metrics": metrics or {},
         "training": training,
     }
+    payload["digest"] = content_digest(payload)
     with atomic_writer(path, fsync=False) as fh:
         torch.save(payload, fh)
     return path
@@ -144,6 +195,7 @@ def load_checkpoint(path: str | Path, map_location: str | torch.device = "cpu") 
             f"{path}: checkpoint format version {version!r}, this tognet "
             f"({tognet.__version__}) reads version {FORMAT_VERSION}; retrain the model with this version"
         )
+    payload["verified"] = _verify(path, payload)
     written_by = payload.get("code", {})
     defaults = TrainConfig().to_dict()
     missing = _missing_keys(payload.get("config", {}), defaults)
