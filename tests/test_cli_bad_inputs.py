@@ -520,6 +520,23 @@ CASES: dict[str, Case] = {
     "plan-config-missing": Case(f"{PP} --config @nope.json", "nope.json"),
     "plan-config-bad": Case(f"{PP} --config @bad.json", "bad.json"),
     "plan-config-range": Case(f"{PP} --config @plan_cfg.json", "top"),
+    "plan-method-oracle": Case(f"{PP} --method Oracle", "needs the simulator"),
+    "plan-method-unknown": Case(f"{PP} --method TOG-Nett", "tog-nett"),
+    "plan-method-wrong-model": Case(f"{PP} --method TOG-Net --checkpoint @models/hammering_search.pt",
+                                    "tog-net needs a task's tog-net model"),
+    "plan-depth-and-bag": Case(f"{PP} --bag @d.png --depth-topic /d", "one of them"),
+    "plan-bag-no-topic": Case("plan --bag @adir --task hammering", "--depth-topic"),
+    "plan-bag-missing": Case("plan --bag @nope.bag --depth-topic /d --info-topic /i --task hammering",
+                             "nope.bag"),
+    "plan-bag-not-a-bag": Case("plan --bag @afile.txt --depth-topic /d --info-topic /i --task hammering",
+                               "afile.txt"),
+    "plan-topic-without-bag": Case(f"{PP} --depth-topic /d", "--bag"),
+    "plan-rerun-suffix": Case(f"{PP} --rerun @out/p.txt", ".rrd"),
+
+    # serve
+    "serve-port": Case("serve --port 70000", "--port"),
+    "serve-threads": Case("serve --threads -1", "--threads"),
+    "serve-preload": Case("serve --preload juggling", "juggling"),
 
     # evaluate
     "eval-task": Case("evaluate --task juggling --episodes 1 --out @out", "juggling"),
@@ -623,7 +640,7 @@ def test_a_bad_input_is_one_clear_line(ws, name, tmp_path):
 
 def test_the_table_covers_every_subcommand():
     names = _subcommands()
-    assert len(names) == 18, names
+    assert len(names) == 19, names
     args = [c.args for c in CASES.values()]
     missing = [n for n in names if not any(a == n or a.startswith(n + " ") for a in args)]
     assert not missing, f"no bad-input case for: {missing}"
