@@ -314,3 +314,25 @@ def fold_batchnorm(model: TOGNet) -> TOGNet:
                     module[i] = fuse_conv_bn_eval(children[i], children[i + 1])
                     module[i + 1] = nn.Identity()
     return folded
+
+
+def flush_subnormal(model: nn.Module) -> int:
+    """Set every subnormal value (0 < |w| < the smallest normal float) of ``model``'s floating-point
+    parameters and buffers to zero, in place; returns how many there were. For inference copies only.
+
+    Weight decay leaves the weights of unused units decaying towards zero, and a long training run takes
+    many below float32's normal range (the shipped ``sweeping_search`` model has about 8,500 in its linear
+    layers). A CPU multiplies by a subnormal in a slow microcode path, so a matrix product over such
+    weights runs several times slower (the action search's scoring of 9,600 actions: 124 ms against 9 ms).
+    A subnormal weight's products (around 1e-38 times an activation) vanish in the sums they join, so
+    outputs are unchanged (bit for bit on the shipped models; what a CPU's denormals-are-zero mode would
+    compute)."""
+    count = 0
+    with torch.no_grad():
+        for tensor in (*model.parameters(), *model.buffers()):
+            if not tensor.is_floating_point():
+                continue
+            sub = (tensor != 0) & (tensor.abs() < torch.finfo(tensor.dtype).tiny)
+            count += int(sub.sum())
+            tensor.masked_fill_(sub, 0.0)
+    return count
