@@ -20,6 +20,41 @@ def _vec(values: list[float] | tuple[float, ...], digits: int = 4) -> str:
     return "(" + ", ".join(f"{v:+.{digits}f}" for v in values) + ")"
 
 
+#: Options of tognet plan, declared here to keep the command readable.
+_BAG = typer.Option(
+    None, "--bag", help="A ROS 1 bag (.bag) or ROS 2 bag (its folder; sqlite3 or MCAP) to read the depth "
+    "image from (pip install 'tognet\\[ros]'), instead of --depth.")
+_DEPTH_TOPIC = typer.Option(
+    None, "--depth-topic", help="With --bag: the sensor_msgs/Image topic (16UC1 millimetres or 32FC1 "
+    "metres).")
+_INFO_TOPIC = typer.Option(
+    None, "--info-topic", help="With --bag: the sensor_msgs/CameraInfo topic for the intrinsics (else "
+    "--intrinsics).")
+_AT = typer.Option(
+    None, "--at", min=0, help="With --bag: seconds from the bag's start; the depth image nearest to it "
+    "(default: the first).")
+_RERUN = typer.Option(
+    None, "--rerun", help="Write a Rerun recording of the plan here (.rrd; pip install "
+    "'tognet\\[rerun]'): the depth as a point cloud, the objects, the candidates by score, the grasp, "
+    "the motion, the arm.")
+_METHOD = typer.Option(
+    None, "--method", help="The method: any a robot can run (TOG-Net+ActionSearch, TOG-Net, "
+    "Task_Agn+Trained, Task_Ori+Random, Task_Agn+Random, Antipodal+Random; case-insensitive). Default: "
+    "the best whose models are at hand (with the shipped models, TOG-Net+ActionSearch). The Oracle and "
+    "the diagnostic rows need the simulator and are refused.")
+
+
+def _check_outputs(out: Path | None, overlay: Path | None, rerun: Path | None) -> None:
+    """Every output path checked before any work (and the rerun extra there when --rerun is given)."""
+    _check_output(out, ".json", "--out")
+    _check_output(overlay, ".png", "--overlay")
+    _check_output(rerun, ".rrd", "--rerun")
+    if rerun is not None:
+        from tognet.viz.rerun import require_rerun
+
+        require_rerun()
+
+
 def _check_output(path: Path | None, suffix: str, option: str) -> None:
     if path is not None:
         out_file(path, option, suffix)  # a folder, a wrong suffix, a file above it, a place not writable
@@ -33,27 +68,15 @@ def plan_cmd(
     intrinsics: Path | None = typer.Option(
         None, "--intrinsics", help="Intrinsics JSON: width, height, fx, fy, cx, cy (pixels); see the README. "
         "With --bag, this or --info-topic."),
-    bag: Path | None = typer.Option(
-        None, "--bag", help="A ROS 1 bag (.bag) or ROS 2 bag (its folder; sqlite3 or MCAP) to read the depth "
-        "image from (pip install 'tognet\\[ros]'), instead of --depth."),
-    depth_topic: str | None = typer.Option(
-        None, "--depth-topic", help="With --bag: the sensor_msgs/Image topic (16UC1 millimetres or 32FC1 "
-        "metres)."),
-    info_topic: str | None = typer.Option(
-        None, "--info-topic", help="With --bag: the sensor_msgs/CameraInfo topic for the intrinsics (else "
-        "--intrinsics)."),
-    at: float | None = typer.Option(
-        None, "--at", min=0, help="With --bag: seconds from the bag's start; the depth image nearest to it "
-        "(default: the first)."),
+    bag: Path | None = _BAG,
+    depth_topic: str | None = _DEPTH_TOPIC,
+    info_topic: str | None = _INFO_TOPIC,
+    at: float | None = _AT,
     task: str = typer.Option(..., "--task", help=f"The task: {', '.join(TASK_NAMES)}."),
     camera_pose: Path | None = typer.Option(
         None, "--camera-pose", help="Camera pose JSON {\"world_from_camera\": 4 x 4} in a frame whose z = 0 "
         "is the table top. Without it the table plane is fitted to the image."),
-    method: str | None = typer.Option(
-        None, "--method", help="The method: any a robot can run (TOG-Net+ActionSearch, TOG-Net, "
-        "Task_Agn+Trained, Task_Ori+Random, Task_Agn+Random, Antipodal+Random; case-insensitive). Default: "
-        "the best whose models are at hand (with the shipped models, TOG-Net+ActionSearch). The Oracle and "
-        "the diagnostic rows need the simulator and are refused."),
+    method: str | None = _METHOD,
     checkpoint: Path | None = typer.Option(
         None, "--checkpoint", help="A checkpoint of one of the models the method needs (a task's TOG-Net, "
         "its action-search model or the grasp-only model; its kind is read from it; one the method does not "
@@ -63,10 +86,7 @@ def plan_cmd(
     out: Path | None = typer.Option(None, "--out", help="Write the whole plan here (.json)."),
     overlay: Path | None = typer.Option(None, "--overlay",
                                         help="Draw the plan on the depth image here (.png)."),
-    rerun: Path | None = typer.Option(
-        None, "--rerun", help="Write a Rerun recording of the plan here (.rrd; pip install "
-        "'tognet\\[rerun]'): the depth as a point cloud, the objects, the candidates by score, the grasp, "
-        "the motion, the arm."),
+    rerun: Path | None = _RERUN,
     reference: tuple[float, float, float] | None = typer.Option(
         None, "--reference", metavar="X Y Z", help=f"The task's reference point ({reference_points()}), "
         "world frame with --camera-pose, else table frame: the start pose is then given absolutely too."),
@@ -102,13 +122,7 @@ def plan_cmd(
         raise ValueError(f"unknown --task '{task}'; known: {', '.join(TASK_NAMES)}")
     if base_pose is not None and robot is None:
         raise ValueError("--base-pose places the --robot arm: name the arm with --robot sawyer|panda")
-    _check_output(out, ".json", "--out")
-    _check_output(overlay, ".png", "--overlay")
-    _check_output(rerun, ".rrd", "--rerun")
-    if rerun is not None:
-        from tognet.viz.rerun import require_rerun
-
-        require_rerun()
+    _check_outputs(out, overlay, rerun)
     if reference is not None and not all(math.isfinite(v) for v in reference):
         raise ValueError(f"--reference takes 3 finite numbers, got {' '.join(map(str, reference))}")
     source = _source(depth, intrinsics, bag, depth_topic, info_topic, at)
@@ -119,28 +133,31 @@ def plan_cmd(
     image, k, pose = _read_image(source, pose)  # every input checked before the model loads
     planner = UserPlanner(task, checkpoint, cfg, robot=arm, method=method)
     plan = planner.plan(image, k, pose, reference=reference, object=choice)
-    png = None
-    if overlay is not None:
-        from tognet.planning.overlay import render_plan
-
-        png = render_plan(plan, image, cfg.antipodal.max_width)
     _print_plan(plan, task, out)
     for text in plan.warnings:
         typer.secho(f"warning: {text}", fg=typer.colors.YELLOW, err=True)
+    _write_outputs(plan, image, cfg.antipodal.max_width, task, reference, out, overlay, rerun)
+
+
+def _write_outputs(plan: Any, image: Any, width: float, task: str, reference: Any, out: Path | None,
+                   overlay: Path | None, rerun: Path | None) -> None:
+    """The plan's JSON (--out), its picture (--overlay) and its recording (--rerun), each whole or not
+    at all, and one line naming what was written."""
+    from tognet.io import atomic_path, atomic_write_bytes
+
     written = []
     if out is not None:
         written.append(str(plan.save(out)))
-    if png is not None and overlay is not None:
-        from tognet.io import atomic_write_bytes
+    if overlay is not None:
+        from tognet.planning.overlay import render_plan
 
-        written.append(str(atomic_write_bytes(overlay, png, fsync=False)))
+        written.append(str(atomic_write_bytes(overlay, render_plan(plan, image, width), fsync=False)))
     if rerun is not None:
-        from tognet.io import atomic_path
         from tognet.tasks import get_task
         from tognet.viz.rerun import log_plan
 
         with atomic_path(rerun) as tmp:
-            log_plan(tmp, plan, image, cfg.antipodal.max_width, get_task(task), reference)
+            log_plan(tmp, plan, image, width, get_task(task), reference)
         written.append(str(rerun))
     if written:
         typer.echo("wrote " + ", ".join(written))

@@ -121,12 +121,7 @@ def sim_command(
     """
     from tognet.sim import SimConfig, Simulator
 
-    _check_inputs(task, grasp, action, gif, depth_png)
-    if rerun is not None:
-        from tognet.viz.rerun import require_rerun
-
-        out_file(rerun, "--rerun", ".rrd")
-        require_rerun()
+    _check_inputs(task, grasp, action, gif, depth_png, rerun)
     cfg = robot_config(SimConfig.load(config) if config else SimConfig(), robot)
     if gif is not None:
         from tognet.sim.render import check_renderer
@@ -152,17 +147,23 @@ def sim_command(
         )
         for key, value in result.info.items():
             typer.echo(f"  {key}: {_short(value)}")
-        if recorder is not None and gif is not None:
-            recorder.save(gif)
-            recorder.close()
-            typer.echo(f"animation ({len(recorder.frames)} frames captured) -> {gif}")
-        if trace is not None and rerun is not None:
-            from tognet.io import atomic_path
-            from tognet.viz.rerun import log_episode
+        _save_episode(recorder, gif, trace, rerun, result, g.as_array(), a)
 
-            with atomic_path(rerun) as tmp:
-                log_episode(tmp, trace, result, g.as_array(), a)
-            typer.echo(f"recording ({len(trace.times)} poses of {len(trace.bodies)} bodies) -> {rerun}")
+
+def _save_episode(recorder: Any, gif: Path | None, trace: Any, rerun: Path | None, result: Any, grasp: Any,
+                  action: Any) -> None:
+    """The episode's animation (--gif) and recording (--rerun), each said in one line."""
+    if recorder is not None and gif is not None:
+        recorder.save(gif)
+        recorder.close()
+        typer.echo(f"animation ({len(recorder.frames)} frames captured) -> {gif}")
+    if trace is not None and rerun is not None:
+        from tognet.io import atomic_path
+        from tognet.viz.rerun import log_episode
+
+        with atomic_path(rerun) as path:
+            log_episode(path, trace, result, grasp, action)
+        typer.echo(f"recording ({len(trace.times)} poses of {len(trace.bodies)} bodies) -> {rerun}")
 
 
 def _run(sim: Any, grasp: Any, action: Any, seed: int, recorder: Any, trace: bool) -> tuple[Any, Any]:
@@ -182,9 +183,15 @@ def _run(sim: Any, grasp: Any, action: Any, seed: int, recorder: Any, trace: boo
         return sim.execute(grasp, action, seed), poses
 
 
-def _check_inputs(task: str, grasp: Any, action: Any, gif: Path | None, depth_png: Path | None) -> None:
+def _check_inputs(task: str, grasp: Any, action: Any, gif: Path | None, depth_png: Path | None,
+                  rerun: Path | None = None) -> None:
     """Refuse, before the episode runs, what cannot work: an unknown task, non-finite numbers, an action
-    for the grasp-only task, output paths that cannot be written."""
+    for the grasp-only task, output paths that cannot be written, --rerun without its extra."""
+    if rerun is not None:
+        from tognet.viz.rerun import require_rerun
+
+        out_file(rerun, "--rerun", ".rrd")
+        require_rerun()
     if task not in SIM_TASKS:
         raise ValueError(f"unknown --task '{task}'; known: {', '.join(SIM_TASKS)}")
     for values, name in ((grasp, "--grasp"), (action, "--action")):
