@@ -272,18 +272,23 @@ class GifJob:
     scene_seed: int
     grasp: tuple[float, ...]
     action: tuple[float, ...]
-    path: str
+    path: str  #: where the coordinator writes the GIF
     config: EvalConfig
 
 
 def run_gif_job(job: GifJob) -> JobOutput:
-    """Animate one episode in a worker; the rerun's failure reason in ``stats``, or the error."""
+    """Animate one episode in a worker; the GIF's bytes and the rerun's failure reason in ``stats`` (the
+    coordinator writes the file: a cluster node need not see the report's folder), or the error."""
+    import tempfile
+
     try:
-        _, result = animate_episode(job.config, job.task, job.obj, job.scene_seed, job.grasp, job.action,
-                                    Path(job.path))
+        with tempfile.TemporaryDirectory(prefix="tognet-gif-") as tmp:
+            gif, result = animate_episode(job.config, job.task, job.obj, job.scene_seed, job.grasp,
+                                          job.action, Path(tmp) / Path(job.path).name)
+            data = gif.read_bytes()
     except Exception as exc:  # no GL backend, a bad object: the report says so and goes on
         return JobOutput(job.index, {}, {}, error=f"{type(exc).__name__}: {exc}")
-    return JobOutput(job.index, {}, {"failure": result.failure.value})
+    return JobOutput(job.index, {}, {"failure": result.failure.value, "gif": data})
 
 
 def find_run_dir(task_model: Path | None) -> Path | None:

@@ -26,6 +26,7 @@ from tognet.evaluate.kinds import (
     may_be_best,
 )
 from tognet.evaluate.subsets import breakdown_note, breakdown_title, broken_down, headline, main_subset
+from tognet.io import atomic_write_bytes
 from tognet.objects.record import ObjectRecord
 
 METHOD_NOTES = {
@@ -466,6 +467,7 @@ def _animations(out: Path, results: dict[str, Any], records: Sequence[dict[str, 
             errors.append(o.error if o is not None else "not run")
             continue
         rerun = o.stats["failure"]
+        atomic_write_bytes(job.path, o.stats["gif"])
         caption = f"{kind} — {r['object_id']}, scene {r['scene_seed']}" + \
             ("" if rerun == r["failure"] else f" (the rendered rerun: {rerun})")
         gifs[task].append((m, kind, Path(job.path), caption))

@@ -4,7 +4,8 @@ Both executors run a module-level job function ``fn`` (collection's ``run_job``,
 ``run_eval_job``, ...) on each job and hand each :class:`JobOutput` to the coordinator's callback as
 it arrives (in completion order; shards are named by job, so the order does not matter). A worker that
 dies (killed, out of memory, a crash inside MuJoCo) is reported and its jobs run again, up to
-``max_retries`` times; after that the job is reported as failed and the round goes on.
+``max_retries`` times; after that the job is reported as failed and the round goes on. On Ray the
+nodes need not share the coordinator's folders (:mod:`tognet.jobs.files`).
 """
 
 from __future__ import annotations
@@ -16,6 +17,8 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Protocol
 
+from tognet.errors import TognetError
+from tognet.jobs.files import FileShipError, FileShipper, run_shipped
 from tognet.jobs.output import JobOutput
 
 OnResult = Callable[[Any, JobOutput], None]
@@ -118,50 +121,107 @@ class LocalExecutor:
 
 class RayExecutor:
     """The same jobs as Ray tasks: ``address=None`` starts a local Ray instance with ``workers`` CPUs,
-    ``address="auto"`` or ``"ray://host:10001"`` joins a cluster (``pip install 'tognet[ray]'``)."""
+    ``address="auto"``, ``"HOST:6379"`` or ``"ray://HOST:10001"`` joins a cluster
+    (``pip install 'tognet[ray]'``).
 
-    def __init__(self, workers: int | None = None, address: str | None = None, max_retries: int = 3) -> None:
+    On a cluster the nodes need not see the coordinator's files: each job's objects and checkpoints
+    travel through Ray's object store, by content (:mod:`tognet.jobs.files`); a local instance reads
+    them where they are. A job lost with its worker or its node is
+    rerun elsewhere, up to ``max_retries`` times, and the log names it; while no node with CPUs is left,
+    the run waits for one and says so."""
+
+    def __init__(self, workers: int | None = None, address: str | None = None, max_retries: int = 3,
+                 wait_seconds: float = 30.0) -> None:
         try:
             import ray
         except ImportError as exc:
-            from tognet.errors import TognetError
-
             raise TognetError("--ray needs Ray: pip install 'tognet[ray]'") from exc
         self._ray = ray
         self.max_retries = max_retries
+        self.wait_seconds = wait_seconds
         self._started = False
+        self._ship = address is not None
         if not ray.is_initialized():
-            kwargs: dict[str, Any] = {"include_dashboard": False, "logging_level": "warning",
-                                      "log_to_driver": False}
-            if address is None:
-                kwargs["num_cpus"] = default_workers() if workers is None else int(workers)
-            ray.init(address=address, **kwargs)
-            self._started = True
-        self.workers = int(ray.cluster_resources().get("CPU", 1))
-        self._remotes: dict[JobFn, Any] = {}
+            self._init(address, workers)
+        self.workers = self._cpus()
+        self._remote: Any = None
+
+    def _init(self, address: str | None, workers: int | None) -> None:
+        kwargs: dict[str, Any] = {"include_dashboard": False, "logging_level": "warning",
+                                  "log_to_driver": False}
+        if address is None:
+            kwargs["num_cpus"] = default_workers() if workers is None else int(workers)
+        try:
+            self._ray.init(address=address, **kwargs)
+        except (ConnectionError, RuntimeError, ValueError) as exc:
+            raise TognetError(f"cannot join the Ray cluster at {address}: {exc}") from exc
+        self._started = True
+
+    def _cpus(self) -> int:
+        """CPUs of the cluster's live nodes (at least 1: the in-flight window is twice this)."""
+        return max(1, int(self._ray.cluster_resources().get("CPU", 0)))
 
     def run(self, jobs: list[Any], on_result: OnResult, log: Callable[[str], None], fn: JobFn
             ) -> None:
         ray = self._ray
-        if fn not in self._remotes:
-            self._remotes[fn] = ray.remote(num_cpus=1, max_retries=self.max_retries)(fn)
-        remote = self._remotes[fn]
-        pending = list(reversed(jobs))
+        if self._remote is None:
+            self._remote = ray.remote(num_cpus=1, max_retries=0)(run_shipped)
+        self.workers = self._cpus()
+        shipper = FileShipper(ray.put)
+        pending = list(reversed(jobs))  # popped from the end: in job order
+        attempts: dict[int, int] = {}
         running: dict[Any, Any] = {}
-        while pending or running:
-            while pending and len(running) < 2 * self.workers:
-                job = pending.pop()
-                running[remote.remote(job)] = job
-            ready, _ = ray.wait(list(running), num_returns=1)
-            for ref in ready:
-                job = running.pop(ref)
-                try:
-                    output = ray.get(ref)
-                except Exception as exc:  # the task failed on every retry (worker crashes, node lost)
-                    log(f"job {job.index} ({job.obj.object_id}) failed on Ray: {type(exc).__name__}")
-                    output = JobOutput(job.index, {}, {}, error=f"{job.obj.object_id}: Ray task failed "
-                                       f"{self.max_retries + 1} times ({type(exc).__name__})")
-                on_result(job, output)
+        idle_said = False
+        try:
+            while pending or running:
+                while pending and len(running) < 2 * self.workers:
+                    job = pending.pop()
+                    try:
+                        manifest = shipper.manifest(job) if self._ship else {}
+                        running[self._remote.remote(fn, job, manifest)] = job
+                    except FileShipError as exc:
+                        on_result(job, JobOutput(job.index, {}, {}, error=f"{job.obj.object_id}: {exc}"))
+                ready, _ = ray.wait(list(running), num_returns=1, timeout=self.wait_seconds)
+                if not ready:
+                    idle_said = self._say_if_idle(log, len(running) + len(pending), idle_said)
+                    continue
+                for ref in ready:
+                    job = running.pop(ref)
+                    output = self._output(ref, job, attempts, log)
+                    if output is None:
+                        pending.append(job)
+                    else:
+                        on_result(job, output)
+        finally:
+            shipper.release()
+
+    def _output(self, ref: Any, job: Any, attempts: dict[int, int], log: Callable[[str], None]
+                ) -> JobOutput | None:
+        """The job's output, or None when it was lost with its worker or node and is to run again."""
+        ray = self._ray
+        try:
+            return ray.get(ref)
+        except ray.exceptions.RayTaskError as exc:  # the job itself raised: running it again gives the same
+            cause = exc.cause if exc.cause is not None else exc
+            return JobOutput(job.index, {}, {}, error=f"{job.obj.object_id}: {type(cause).__name__}: {cause}")
+        except Exception as exc:  # its worker crashed or its node was lost
+            n = attempts[id(job)] = attempts.get(id(job), 0) + 1  # by object: indices may repeat
+            reason = type(exc).__name__
+            if n > self.max_retries:
+                log(f"job {job.index} ({job.obj.object_id}) lost {n} times ({reason}); skipped")
+                return JobOutput(job.index, {}, {}, error=f"{job.obj.object_id}: lost with its Ray worker "
+                                 f"or node {n} times ({reason})")
+            log(f"job {job.index} ({job.obj.object_id}) was lost with its worker or node ({reason}); "
+                f"rerunning it (attempt {n + 1} of {self.max_retries + 1})")
+            return None
+
+    def _say_if_idle(self, log: Callable[[str], None], waiting: int, said: bool) -> bool:
+        """Says once that no node with CPUs is left (the jobs wait for one); returns whether it has."""
+        cpus = int(self._ray.cluster_resources().get("CPU", 0))
+        if cpus == 0 and not said:
+            log(f"no node with CPUs is left in the Ray cluster: {waiting} job(s) wait for one to join "
+                "(ray start --address=...)")
+        return cpus == 0
 
     def close(self) -> None:
         if self._started:

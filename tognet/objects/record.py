@@ -91,6 +91,12 @@ class ObjectRecord:
         return mesh
 
     @property
+    def file_names(self) -> list[str]:
+        """Every file of the object's folder that building its world reads (collision pieces, the visual
+        mesh, the MJCF), relative to ``folder``: what a cluster node needs of it."""
+        return [*self.collision_meshes, self.visual_mesh, self.mjcf]
+
+    @property
     def collision_paths(self) -> list[Path]:
         """Absolute paths of the convex collision pieces."""
         return [self.path(n) for n in self.collision_meshes]
@@ -253,7 +259,7 @@ def load_catalog(set_dir: str | Path) -> list[ObjectRecord]:
             raise CatalogError(f"{path}: object {record.object_id} is listed twice")
         seen.add(record.object_id)
     for record in records:
-        for name in [*record.collision_meshes, record.visual_mesh, record.mjcf]:
+        for name in record.file_names:
             if not record.path(name).is_file():
                 raise CatalogError(f"object {record.object_id}: file {record.path(name)} is missing")
     return records
