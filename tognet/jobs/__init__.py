@@ -8,6 +8,8 @@ local worker processes or on Ray and hand each output to the caller as it arrive
     output.py   JobOutput (records as columns, counters, an error)
     models.py   load_model (one predictor per checkpoint and worker process)
     scenes.py   reset_scene (a scene the simulator cannot set up is counted, not raised)
+    files.py    a job's files shipped to Ray nodes by content, cached per node by sha256
+    localcluster.py  a Ray cluster on this machine whose worker nodes cannot see chosen folders
 """
 
 from typing import TYPE_CHECKING
