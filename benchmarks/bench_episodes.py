@@ -32,8 +32,9 @@ import numpy as np
 from tognet.config import ConfigError
 from tognet.objects.generate import generate_set
 from tognet.objects.handmade import grasp_on_object, make_test_tools
+from tognet.robot.names import ROBOT_NAMES
 from tognet.sim import SimConfig, Simulator
-from tognet.sim.config import ROBOTS, with_robot
+from tognet.sim.config import with_robot
 from tognet.tasks import TASK_NAMES, get_props, get_task
 
 _REFERENCE_XML = """
@@ -152,7 +153,8 @@ def main() -> None:
     parser.add_argument("--tasks", nargs="+", default=list(TASK_NAMES), choices=TASK_NAMES,
                         help="tasks to time (default: every registered task)")
     parser.add_argument("--config", type=Path, help="SimConfig JSON to time instead of the defaults")
-    parser.add_argument("--robot", choices=ROBOTS, help="what carries the hand (an arm: its preset on top)")
+    parser.add_argument("--robot", choices=ROBOT_NAMES,
+                        help="what carries the hand (an arm: its preset on top)")
     args = parser.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     cfg = _load_config(parser, args.config)

@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 from tognet.objects.handmade import grasp_on_object
+from tognet.robot.names import ROBOT_NAMES
 from tognet.sim import SimConfig, Simulator
-from tognet.sim.config import ROBOTS, with_robot
+from tognet.sim.config import with_robot
 from tognet.tasks import FailureReason
 
 HAVE_EXTRA = all(importlib.util.find_spec(name) is not None for name in ("robosuite", "mink"))
@@ -38,7 +39,7 @@ def sawyer() -> SimConfig:
 
 def test_the_presets_scale_the_swing_by_the_wrist_speed_squared():
     base = SimConfig()
-    for name in ROBOTS[1:]:
+    for name in ROBOT_NAMES[1:]:
         cfg = with_robot(base, name)
         ratio = (cfg.gripper.yaw_speed / base.gripper.yaw_speed) ** 2
         assert cfg.robot.name == name and ratio < 0.3

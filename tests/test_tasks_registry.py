@@ -70,3 +70,15 @@ def test_success_rules():
     assert ham.evaluate(TaskOutcome(True, False, {"peg_out": 0.001}))[0]
     assert ham.evaluate(TaskOutcome(True, False, {"peg_out": 0.02}))[1] == FailureReason.TASK_FAILED
     assert ham.evaluate(TaskOutcome(False, False, {"peg_out": 0.05}))[1] == FailureReason.MISSED
+
+
+def test_one_check_raises_unknown_task():
+    from tognet.tasks import SIM_TASKS, check_task_name
+
+    assert check_task_name("pulling") == "pulling" and check_task_name("grasping", SIM_TASKS) == "grasping"
+    with pytest.raises(ValueError, match="unknown task 'grasping'; known: sweeping, hammering, pulling$"):
+        check_task_name("grasping")
+    with pytest.raises(ValueError, match="unknown --task 'x'; known: .*grasping"):
+        check_task_name("x", SIM_TASKS, "--task")
+    with pytest.raises(KeyError, match="unknown task 'x'"):
+        check_task_name("x", error=KeyError)

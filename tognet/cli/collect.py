@@ -85,10 +85,9 @@ def collect_cmd(
     from tognet.collect.rounds import collect_round
     from tognet.jobs.workers import make_executor
     from tognet.objects.record import load_catalog
-    from tognet.tasks import GRASP_ONLY, SIM_TASKS
+    from tognet.tasks import GRASP_ONLY, SIM_TASKS, check_task_name
 
-    if task not in SIM_TASKS:
-        raise ValueError(f"unknown task '{task}'; known: {', '.join(SIM_TASKS)}")
+    check_task_name(task, SIM_TASKS)
     if policy not in ("nms_uniform", "epsilon_greedy"):
         raise ValueError(f"unknown policy '{policy}'; use nms_uniform or epsilon_greedy")
     if policy == "epsilon_greedy" and task_model is None:

@@ -9,11 +9,18 @@ from typing import Any
 import typer
 
 from tognet.cli.util import out_file, user_errors
-from tognet.tasks import TASK_NAMES, reference_points
+from tognet.robot.names import ARM_BASES, FLOATING, ROBOT_NAMES
+from tognet.tasks import TASK_NAMES, check_task_name, reference_points
 
 DEPTH_SUFFIXES = (".png", ".npy", ".npz")
-#: What ``--robot`` names (tognet.sim.config.ROBOTS, without importing MuJoCo for --help).
-ROBOTS = ("floating", "sawyer", "panda")
+#: The arms ``--robot`` names, as its metavar writes them.
+ARMS_METAVAR = "|".join(ARM_BASES)
+
+
+def _default_bases() -> str:
+    """Each arm's default base, for ``--base-pose``'s help: 'sawyer (-0.2, 0.6, 0) yaw -1.571, ...'."""
+    return ", ".join(f"{name} ({', '.join(f'{v:g}' for v in base.position)}) yaw {base.yaw:.4g}"
+                     for name, base in ARM_BASES.items())
 
 
 def _vec(values: list[float] | tuple[float, ...], digits: int = 4) -> str:
@@ -97,15 +104,14 @@ def plan_cmd(
     seed: int = typer.Option(0, "--seed", min=0, help="Seed of the sampler and the search."),
     config: Path | None = typer.Option(None, "--config", help="UserPlanConfig JSON (defaults otherwise)."),
     robot: str | None = typer.Option(
-        None, "--robot", metavar="|".join(ROBOTS), help="Plan for this arm beside the table, carrying the "
-        "simulator's hand (pip install 'tognet\\[robot]'): only grasps and motions it reaches (the task's "
-        "motion too when --reference is given), and the joint trajectory in --out's JSON (robot). "
-        "floating: as without the option."),
+        None, "--robot", metavar="|".join(ROBOT_NAMES), help="Plan for this arm beside the table, carrying "
+        "the simulator's hand (pip install 'tognet\\[robot]'): only grasps and motions it reaches (the "
+        "task's motion too when --reference is given), and the joint trajectory in --out's JSON (robot). "
+        f"{FLOATING}: as without the option."),
     base_pose: Path | None = typer.Option(
         None, "--base-pose", help="The --robot arm's base: JSON {\"position\": \\[x, y, z], \"yaw\": rad} "
         "(m, in the frame of --reference: the world frame of --camera-pose, else the plan's table frame; "
-        "z = 0 the table top). Default: the arm's own (sawyer (-0.2, 0.6, 0), panda (-0.2, 0.45, 0), yaw "
-        "-pi/2: facing -y)."),
+        f"z = 0 the table top). Default: the arm's own ({_default_bases()} rad)."),
 ) -> None:
     """Plan a task-oriented grasp and the task's motion on one depth image from your own camera.
 
@@ -118,10 +124,9 @@ def plan_cmd(
     from tognet.planning.user import UserPlanConfig, UserPlanner, parse_object
 
     choice = parse_object(object_)
-    if task not in TASK_NAMES:
-        raise ValueError(f"unknown --task '{task}'; known: {', '.join(TASK_NAMES)}")
+    check_task_name(task, what="--task")
     if base_pose is not None and robot is None:
-        raise ValueError("--base-pose places the --robot arm: name the arm with --robot sawyer|panda")
+        raise ValueError(f"--base-pose places the --robot arm: name the arm with --robot {ARMS_METAVAR}")
     _check_outputs(out, overlay, rerun)
     if reference is not None and not all(math.isfinite(v) for v in reference):
         raise ValueError(f"--reference takes 3 finite numbers, got {' '.join(map(str, reference))}")

@@ -10,7 +10,7 @@ from typing import Any
 import typer
 
 from tognet.cli.util import ROBOT_HELP, out_file, robot_config, user_errors
-from tognet.tasks import DEFAULT_TASK, GRASP_ONLY, SIM_TASKS, TASK_NAMES, get_props, get_task
+from tognet.tasks import DEFAULT_TASK, GRASP_ONLY, SIM_TASKS, TASK_NAMES, check_task_name, get_props, get_task
 
 
 def _short(value: object) -> object:
@@ -192,8 +192,7 @@ def _check_inputs(task: str, grasp: Any, action: Any, gif: Path | None, depth_pn
 
         out_file(rerun, "--rerun", ".rrd")
         require_rerun()
-    if task not in SIM_TASKS:
-        raise ValueError(f"unknown --task '{task}'; known: {', '.join(SIM_TASKS)}")
+    check_task_name(task, SIM_TASKS, "--task")
     for values, name in ((grasp, "--grasp"), (action, "--action")):
         if values is not None and not all(math.isfinite(v) for v in values):
             raise ValueError(f"{name} takes 4 finite numbers, got {' '.join(map(str, values))}")

@@ -24,6 +24,7 @@ import typer
 
 from tognet.config import ConfigError
 from tognet.errors import TognetError
+from tognet.robot.names import ARM_BASES, FLOATING, check_robot_name
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -43,8 +44,14 @@ TASKS_HELP = (
 )
 
 
+def either(names: Iterable[str]) -> str:
+    """``'a, b or c'`` of ``names`` (at least one), for help texts."""
+    *rest, last = names
+    return f"{', '.join(rest)} or {last}" if rest else last
+
+
 ROBOT_HELP = (
-    "What carries the hand: floating (the default), sawyer or panda (a real arm beside the table, "
+    f"What carries the hand: {FLOATING} (the default), {either(ARM_BASES)} (a real arm beside the table, "
     "pip install 'tognet\\[robot]'); an arm's preset (tognet/robot/presets) goes on top of the config."
 )
 
@@ -54,11 +61,9 @@ def robot_config(sim: Any, robot: str | None, option: str = "--robot") -> Any:
     is unknown or the robot extra is missing (checked before any long work)."""
     if robot is None:
         return sim
-    from tognet.sim.config import ROBOTS, with_robot
+    from tognet.sim.config import with_robot
 
-    if robot not in ROBOTS:
-        raise ValueError(f"unknown {option} {robot!r}: choose from {', '.join(ROBOTS)}")
-    if robot != "floating":
+    if check_robot_name(robot, option) != FLOATING:
         from tognet.robot.ik import require_extra
 
         require_extra()
@@ -67,15 +72,15 @@ def robot_config(sim: Any, robot: str | None, option: str = "--robot") -> Any:
 
 def task_list(spec: str) -> list[str]:
     """The tasks ``--task`` names (see :data:`TASKS_HELP`); an unknown name raises ValueError."""
-    from tognet.tasks import PAPER_TASKS, TASK_NAMES
+    from tognet.tasks import PAPER_TASKS, TASK_NAMES, check_task_name
 
     if spec == "all":
         return list(TASK_NAMES)
-    names = list(PAPER_TASKS) if spec == "both" else [n.strip() for n in spec.split(",") if n.strip()]
-    for name in names:
-        if name not in TASK_NAMES:
-            raise ValueError(f"unknown task '{name}'; known tasks: {', '.join(TASK_NAMES)} (or all, both)")
-    return names
+    if spec == "both":
+        return list(PAPER_TASKS)
+    names = [n.strip() for n in spec.split(",") if n.strip()]
+    # One name alone may also have been all or both (the message lists them); in a list, only tasks.
+    return [check_task_name(n, (*TASK_NAMES, "all", "both") if n == spec else TASK_NAMES) for n in names]
 
 
 def task_models(pairs: list[str]) -> dict[str, Path]:

@@ -119,11 +119,12 @@ def run_pipeline(
     log: Callable[[str], None] = print,
 ) -> dict[str, Any]:
     """Run (or resume) the whole loop for ``tasks``; returns the summary (also OUT/summary.json)."""
-    from tognet.tasks import TASK_NAMES
+    from tognet.tasks import TASK_NAMES, check_task_name
 
-    unknown = [t for t in tasks if t not in TASK_NAMES]
-    if unknown or not tasks:
-        raise PipelineError(f"unknown task(s) {unknown}; known: {', '.join(TASK_NAMES)}")
+    for task in tasks:
+        check_task_name(task, error=PipelineError)
+    if not tasks:
+        raise PipelineError(f"no task given; known: {', '.join(TASK_NAMES)}")
     if not all(preset.rounds_for(t) for t in tasks):
         raise PipelineError("the preset has no rounds")
     out = Path(out)

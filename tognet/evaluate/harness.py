@@ -272,12 +272,11 @@ def _checked_request(
     object_dirs: Sequence[str | Path], episodes: int,
 ) -> tuple[list[str], list[str], list[str]]:
     """The tasks, methods and categories asked for, without repeats; EvalError names what is unknown."""
-    from tognet.tasks import TASK_NAMES
+    from tognet.tasks import TASK_NAMES, check_task_name
 
-    tasks = list(dict.fromkeys(tasks))
-    bad = [t for t in tasks if t not in TASK_NAMES]
-    if bad or not tasks:
-        raise EvalError(f"unknown task(s) {bad}; known: {', '.join(TASK_NAMES)}")
+    tasks = [check_task_name(t, error=EvalError) for t in dict.fromkeys(tasks)]
+    if not tasks:
+        raise EvalError(f"no task given; known: {', '.join(TASK_NAMES)}")
     checked = list(check_methods(methods))
     if episodes < 1:
         raise EvalError("episodes must be >= 1")

@@ -89,7 +89,7 @@ from tognet.planning.reach import ArmReach, FramedReach
 from tognet.planning.user_plan import ArmPlan, PlannedGrasp, UserPlan
 from tognet.policies.config import PolicyConfig
 from tognet.policies.view import SceneView
-from tognet.tasks import GRASP_ONLY, TASK_NAMES, Task, get_task
+from tognet.tasks import GRASP_ONLY, Task, check_task_name, get_task
 
 __all__ = ["ArmPlan", "PlanInputError", "PlannedGrasp", "UserPlan", "UserPlanConfig", "UserPlanner",
            "plan_image"]
@@ -172,9 +172,7 @@ class UserPlanner:
 
     def __init__(self, task: str, checkpoint: Any = None, config: UserPlanConfig | None = None,
                  num_threads: int | None = 1, robot: Any = None, method: str | None = None) -> None:
-        if task not in TASK_NAMES:
-            raise PlanInputError(f"unknown task '{task}'; known: {', '.join(TASK_NAMES)}")
-        self.task_name = task
+        self.task_name = check_task_name(task, error=PlanInputError)
         self.task: Task = get_task(task)
         self.config = config or UserPlanConfig()
         try:

@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tognet.errors import TognetError
+from tognet.robot.names import ARM_BASES
 
 #: Prefix of every name in an arm's MJCF (bodies, joints, geoms, sites, meshes, materials, actuators).
 PREFIX = "arm_"
@@ -77,10 +78,7 @@ class ArmSpec:
     pad_geoms: tuple[str, str]  # the two finger pads' collision geoms (unprefixed)
     joint_speed_limits: tuple[float, ...]  # rad/s, one per arm joint, from the maker's figures
     home: tuple[float, ...]  # a joint configuration with the hand above the table, pointing down
-    # Default base pose in tognet's world frame (m, rad): beside the table's far long side (y > 0), facing
-    # it, a little towards the grasping half. The paper does not give its Sawyer's; from there the arm
-    # reaches the grasps and every task's moves, the sweep's stroke (40 cm along +y, past the table's
-    # edge) included, which from the near side (y < 0) it does not (benchmarks/RESULTS.md).
+    # Default base pose in tognet's world frame (m, rad): the arm's tognet.robot.names.ARM_BASES.
     base_pos: tuple[float, float, float]
     base_yaw: float
     hand_yaw: float = 0.0  # a hand of tognet's turned by this about the flange axis (HandMount.yaw)
@@ -99,8 +97,8 @@ ARMS: dict[str, ArmSpec] = {
         # Franka Emika Panda datasheet: joints 1-4 2.175 rad/s, joints 5-7 2.61 rad/s.
         joint_speed_limits=(2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61),
         home=(0.0, -0.3, 0.0, -2.2, 0.0, 1.9, 0.785),
-        base_pos=(-0.2, 0.45, 0.0),
-        base_yaw=-math.pi / 2,
+        base_pos=ARM_BASES["panda"].position,
+        base_yaw=ARM_BASES["panda"].yaw,
         # Chosen by measurement (benchmarks/RESULTS.md): with the hand turned so on the flange, joint 7's
         # +-166 degrees hold the turns the tasks' trials make most often.
         hand_yaw=0.43,
@@ -122,8 +120,8 @@ ARMS: dict[str, ArmSpec] = {
         # Rethink Robotics' Sawyer description (URDF velocity limits), right_j0 ... right_j6.
         joint_speed_limits=(1.74, 1.328, 1.957, 1.957, 3.485, 3.485, 4.545),
         home=(0.0, -1.18, 0.0, 2.18, 0.0, 0.57, 3.3161),
-        base_pos=(-0.2, 0.6, 0.0),
-        base_yaw=-math.pi / 2,
+        base_pos=ARM_BASES["sawyer"].position,
+        base_yaw=ARM_BASES["sawyer"].yaw,
     ),
 }
 ARM_NAMES = tuple(ARMS)

@@ -16,7 +16,8 @@ import numpy as np
 
 from tognet.config import Config, ConfigRangeError, doc
 from tognet.geometry.camera import focal_length_problem
-from tognet.tasks import TASK_NAMES, task_config_class
+from tognet.robot.names import FLOATING, check_robot_name
+from tognet.tasks import TASK_NAMES, check_task_name, task_config_class
 
 
 @dataclass(frozen=True)
@@ -224,10 +225,6 @@ class EpisodeConfig(Config):
     check_every: int = doc(10, "Contacts and stability are checked every this many steps.", ge=1)
 
 
-#: What can carry the hand: the floating base, or a real arm (the optional ``robot`` extra).
-ROBOTS = ("floating", "sawyer", "panda")
-
-
 @dataclass(frozen=True)
 class RobotConfig(Config):
     """What carries the hand: the floating x, y, z, yaw base (the default, as VGN's), or a real arm beside
@@ -239,13 +236,13 @@ class RobotConfig(Config):
     takes the wrist servo of ``SimConfig.gripper`` (its stiffness, torque limit and rotor inertia: a task
     whose tool strikes may rely on the wrist's torque being low) but the arm's own speed limit."""
 
-    name: Literal["floating", "sawyer", "panda"] = doc(
+    name: Literal["floating", "sawyer", "panda"] = doc(  # tognet.robot.names.ROBOT_NAMES
         "floating", "What carries the hand: floating, sawyer or panda."
     )
     base_position: tuple[float, float, float] | None = doc(
         None,
         "The arm's base (m, world frame; the table top is z = 0); None: the arm's default, beside the "
-        "table's long side at y > 0, facing it (tognet.robot.arms.ARMS).",
+        "table's long side at y > 0, facing it (tognet.robot.names.ARM_BASES).",
     )
     base_yaw: float | None = doc(None, "The arm's base yaw (rad); None: the arm's default (facing -y).")
     park: tuple[float, float, float] = doc(
@@ -312,9 +309,7 @@ class SimConfig(Config):
 
     def task_config(self, name: str) -> Any:
         """The config of the task called ``name`` (a registered task)."""
-        if name not in TASK_NAMES:
-            raise ValueError(f"unknown task '{name}'; known tasks: {', '.join(TASK_NAMES)}")
-        return getattr(self, name)
+        return getattr(self, check_task_name(name))
 
     @property
     def tasks(self) -> Mapping[str, Any]:
@@ -331,8 +326,8 @@ def _merge(base: dict[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def with_robot(config: SimConfig, name: str) -> SimConfig:
-    """``config`` with the hand carried by ``name`` (one of :data:`ROBOTS`): for an arm, its preset
-    (``tognet/robot/presets/<name>.json``) on top.
+    """``config`` with the hand carried by ``name`` (one of :data:`tognet.robot.names.ROBOT_NAMES`): for an
+    arm, its preset (``tognet/robot/presets/<name>.json``) on top.
 
     An arm's wrist turns slower than the floating base's (``gripper.yaw_speed``: the Sawyer's last joint
     4.545 rad/s, the Panda's 2.61, against 9), and a swing carries energy in proportion to the speed
@@ -341,10 +336,8 @@ def with_robot(config: SimConfig, name: str) -> SimConfig:
     moves as far per unit of the swing's energy as with the floating base, the wrist still cannot push
     it home slowly (torque / lever below the friction, scaled alike), and the grasps that hammer with
     the floating base hammer with the arm (benchmarks/RESULTS.md)."""
-    if name not in ROBOTS:
-        raise ValueError(f"unknown robot {name!r}: choose from {', '.join(ROBOTS)}")
-    if name == "floating":
-        return config.replace(robot=config.robot.replace(name="floating"))
+    if check_robot_name(name) == FLOATING:
+        return config.replace(robot=config.robot.replace(name=FLOATING))
     import json
     from importlib import resources
 

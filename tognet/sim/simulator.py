@@ -49,7 +49,7 @@ from tognet.sim.physics import (
 )
 from tognet.sim.trial import Trial, TrialResult
 from tognet.sim.world import PARK, touch_sensor_names, world_xml
-from tognet.tasks import SIM_TASKS, TASK_NAMES, Task, get_props, get_task
+from tognet.tasks import SIM_TASKS, TASK_NAMES, Task, check_task_name, get_props, get_task
 from tognet.tasks.props import PropsMJCF, TaskProps
 
 __all__ = ["SIM_TASKS", "Observation", "SimulationError", "Simulator", "TrialResult"]
@@ -72,10 +72,8 @@ class Simulator(Trial):
     """The world with one object and one task's props (see the module docstring)."""
 
     def __init__(self, config: SimConfig, task: str, obj: ObjectRecord) -> None:
-        if task not in SIM_TASKS:
-            raise ValueError(f"unknown task '{task}'; known: {', '.join(SIM_TASKS)}")
         self.config = config
-        self.task_name = task
+        self.task_name = check_task_name(task, SIM_TASKS)
         self.task: Task | None = get_task(task, config.task_config(task)) if task in TASK_NAMES else None
         self._props: TaskProps = get_props(self.task)
         self.obj = obj

@@ -6,6 +6,7 @@ Adding a task: its two modules, and one line in ``_REGISTRY`` below.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -51,10 +52,20 @@ def reference_points() -> str:
     return "; ".join(f"{name}: {entry.task.reference_point}" for name, entry in _REGISTRY.items())
 
 
+def check_task_name(name: str, known: Iterable[str] | None = None, what: str = "task", *,
+                    error: Callable[[str], Exception] = ValueError) -> str:
+    """``name`` if it is one of ``known`` (default :data:`TASK_NAMES`; a caller taking more, such as
+    :data:`SIM_TASKS`, passes its own); otherwise ``error`` (ValueError, or the caller's own class) with
+    the one message of an unknown task, ``unknown <what> 'name'; known: a, b`` (``what``: how the caller's
+    user named it, e.g. ``--task``)."""
+    choices = TASK_NAMES if known is None else tuple(known)
+    if name not in choices:
+        raise error(f"unknown {what} '{name}'; known: {', '.join(choices)}")
+    return name
+
+
 def _entry(name: str) -> TaskEntry:
-    if name not in _REGISTRY:
-        raise ValueError(f"unknown task '{name}'; known tasks: {', '.join(TASK_NAMES)}")
-    return _REGISTRY[name]
+    return _REGISTRY[check_task_name(name)]
 
 
 def get_task(name: str, config: Any = None) -> Task:
@@ -93,6 +104,7 @@ __all__ = [
     "TaskEntry",
     "TaskOutcome",
     "TaskProps",
+    "check_task_name",
     "get_props",
     "get_task",
     "reference_points",
