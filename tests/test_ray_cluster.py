@@ -147,6 +147,17 @@ def test_an_evaluation_on_blind_nodes_gives_the_results_local_workers_give(clust
     assert gifs and gifs == sorted(p.name for p in (run / "eval-cluster" / "gifs").glob("*.gif"))
 
 
+def test_a_pipeline_on_blind_nodes_collects_and_trains_what_local_workers_do(cluster):
+    c, run = cluster
+    args = ["pipeline", "--task", "hammering", "--preset", "ci", "--no-progress"]
+    _tognet(args + ["--out", str(run / "pipe-local"), "--workers", "1"])
+    _tognet(args + ["--out", str(run / "pipe-cluster")], c)
+    rounds = sorted(p.relative_to(run / "pipe-local") for p in (run / "pipe-local").glob("*/round*/data"))
+    assert len(rounds) == 4  # the grasp-only round and three of hammering, each trained on
+    for data in rounds:
+        _same_records(run / "pipe-local" / data, run / "pipe-cluster" / data)
+
+
 def test_a_node_lost_mid_round_costs_nothing_and_the_log_names_the_rerun_jobs(cluster):
     c, run = cluster
     args = _collect_args(run, "killed", 96, "long.json")  # 8 jobs of 12 trials
