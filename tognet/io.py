@@ -7,12 +7,17 @@ temporary behind. Digests name datasets' shards and the checkpoints that run set
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import os
+import sys
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import BinaryIO
+from typing import Any, BinaryIO
+
+from tognet.errors import TognetError
 
 
 @contextmanager
@@ -73,5 +78,72 @@ def file_digest(path: str | Path | None) -> str | None:
     return None if path is None else sha256_file(path)[:16]
 
 
-__all__ = ["atomic_path", "atomic_write_bytes", "atomic_write_text", "atomic_writer", "file_digest",
-           "sha256_file"]
+#: The file in a folder that a tognet command writes which says who holds it.
+LOCK_NAME = ".tognet.lock"
+
+
+class FolderBusy(TognetError):
+    """Another live process writes the folder."""
+
+
+class FolderLock:
+    """One writer per folder: an advisory ``flock`` on ``<folder>/.tognet.lock``, which also names the
+    holder (PID, command, start time) for whoever is refused. The kernel drops the lock when its process
+    ends however it ends, so a dead run's lock is simply taken over."""
+
+    def __init__(self, folder: str | Path, option: str = "--out") -> None:
+        self.folder = Path(folder)
+        self.created = not self.folder.exists()
+        self.folder.mkdir(parents=True, exist_ok=True)
+        self.path = self.folder / LOCK_NAME
+        self._fh = self._take(option)
+        started = time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime())
+        self._fh.truncate(0)
+        self._fh.write(f"PID {os.getpid()}, `{_command_name()}`, started {started}\n")
+        self._fh.flush()
+
+    def _take(self, option: str) -> Any:
+        while True:
+            fh = open(self.path, "a+")  # noqa: SIM115 (held until release)
+            try:
+                fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                fh.seek(0)
+                holder = fh.read().strip() or "a process that has not said who it is yet"
+                fh.close()
+                raise FolderBusy(f"{option} {self.folder}: another tognet run writes this folder ({holder}); "
+                                 "wait for it to end or choose another folder") from None
+            try:  # the holder before us may have removed the file between our open and our lock
+                if os.fstat(fh.fileno()).st_ino == os.stat(self.path).st_ino:
+                    return fh
+            except FileNotFoundError:
+                pass
+            fh.close()
+
+    def release(self) -> None:
+        """Remove the lock file, unlock, and remove the folder again if this lock made it and it is empty
+        (a command refused after taking the lock leaves nothing behind)."""
+        if self._fh is None:
+            return
+        self.path.unlink(missing_ok=True)
+        self._fh.close()
+        self._fh = None
+        if self.created:
+            try:
+                self.folder.rmdir()
+            except OSError:  # not empty: the command wrote something
+                pass
+
+
+def _command_name() -> str:
+    """``tognet train``-like: the program and its subcommand words, without the options."""
+    words = [Path(sys.argv[0]).name if sys.argv and sys.argv[0] else "python"]
+    for arg in sys.argv[1:3]:
+        if arg.startswith("-"):
+            break
+        words.append(arg)
+    return " ".join(words)
+
+
+__all__ = ["LOCK_NAME", "FolderBusy", "FolderLock", "atomic_path", "atomic_write_bytes", "atomic_write_text",
+           "atomic_writer", "file_digest", "sha256_file"]

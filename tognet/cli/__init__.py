@@ -56,7 +56,12 @@ def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``tognet`` console script (``argv``: the arguments, default ``sys.argv[1:]``).
 
     A usage error (an unknown option, a missing argument, a value out of its range) is one line too,
-    ``error: <what> (see: tognet <command> --help)``, exit status 2, like the commands' own errors."""
+    ``error: <what> (see: tognet <command> --help)``, exit status 2, like the commands' own errors.
+    Ctrl-C or SIGTERM stops the command and prints one line: what was kept and the command that
+    continues (exit status 130 / 143)."""
+    from tognet.cli.interrupt import Stopped, exit_status, interrupted_line, on_sigterm_stop
+
+    on_sigterm_stop()
     try:
         code = app(args=argv, prog_name="tognet", standalone_mode=False)
     except _CLICK_EXCEPTION as exc:
@@ -73,9 +78,10 @@ def main(argv: list[str] | None = None) -> None:
     except typer.Abort:
         print("aborted", file=sys.stderr)
         raise SystemExit(1) from None
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
-        raise SystemExit(130) from None
+    except (Stopped, KeyboardInterrupt) as exc:  # Ctrl-C, or SIGTERM (tognet.cli.interrupt)
+        signal_exc = exc.signal_exc if isinstance(exc, Stopped) else exc
+        print(interrupted_line(sys.argv[1:] if argv is None else argv, signal_exc), file=sys.stderr)
+        raise SystemExit(exit_status(signal_exc)) from None
     except BrokenPipeError:  # `tognet ... | head`: the reader has all it wanted
         sys.stdout = open(os.devnull, "w")  # noqa: SIM115 (no flush of the closed pipe at exit)
         raise SystemExit(1) from None

@@ -22,8 +22,10 @@ from typing import Any, TypeVar
 
 import typer
 
+from tognet.cli.interrupt import Stopped
 from tognet.config import ConfigError
 from tognet.errors import TognetError
+from tognet.io import FolderLock
 from tognet.robot.names import ARM_BASES, FLOATING, check_robot_name
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -191,18 +193,38 @@ def user_errors(func: F) -> F:
         try:
             return func(*args, **kwargs)
         except USER_ERRORS as exc:
-            if isinstance(exc, OSError) and exc.errno == errno.EPIPE:
-                raise  # the reader of stdout went away (`tognet ... | head`): tognet.cli.main ends quietly
-            if isinstance(exc, OSError) and exc.errno is not None:
-                where = None if exc.filename is None else _option_of(os.fsdecode(exc.filename), kwargs, names)
-                message = os_error_message(exc, where)
-            else:
-                message = str(exc)
-            message = " ".join(message.split()) or type(exc).__name__
-            typer.secho(f"error: {message}", err=True, fg=typer.colors.RED)
-            raise typer.Exit(code=2) from None
+            _report(exc, kwargs, names)
+        except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM: tognet.cli.main says what was kept
+            raise Stopped(exc) from None
+        finally:
+            release_folders()
 
     return wrapper  # type: ignore[return-value]
+
+
+def _report(exc: BaseException, kwargs: dict[str, Any], names: dict[str, str]) -> None:
+    """Print a user-facing error as one line and exit 2 (a closed stdout pipe is raised on, for
+    :func:`tognet.cli.main` to end quietly)."""
+    if isinstance(exc, OSError) and exc.errno == errno.EPIPE:
+        raise exc  # the reader of stdout went away (`tognet ... | head`)
+    if isinstance(exc, OSError) and exc.errno is not None:
+        where = None if exc.filename is None else _option_of(os.fsdecode(exc.filename), kwargs, names)
+        message = os_error_message(exc, where)
+    else:
+        message = str(exc)
+    message = " ".join(message.split()) or type(exc).__name__
+    typer.secho(f"error: {message}", err=True, fg=typer.colors.RED)
+    raise typer.Exit(code=2) from None
+
+
+#: Folders the running command holds (:func:`out_folder`), released when it ends.
+_HELD: list[FolderLock] = []
+
+
+def release_folders() -> None:
+    """Release every folder the command took (its lock file goes; a folder it made and left empty too)."""
+    while _HELD:
+        _HELD.pop().release()
 
 
 def _existing_ancestor(path: Path) -> Path:
@@ -221,15 +243,19 @@ def _probe_folder(base: Path, option: str, path: Path) -> None:
     os.rmdir(probe)
 
 
-def out_folder(path: Path, option: str = "--out") -> Path:
+def out_folder(path: Path, option: str = "--out", lock: bool = True) -> Path:
     """``path`` checked as a folder to write into, before any work: a file there (or above it), or a place
-    the user may not write, is a one-line user error. Nothing is created."""
+    the user may not write, is a one-line user error. With ``lock`` the command then holds the folder
+    (:class:`tognet.io.FolderLock`) until it ends: a second run into it is refused with one line naming
+    the first; a folder made for it and left empty is removed again."""
     if path.exists() and not path.is_dir():
         raise TognetError(f"{option} {path}: exists and is not a folder (it is a file); pass a folder")
     above = _file_above(path)
     if above is not None:
         raise TognetError(f"{option} {path}: {above} is a file, not a folder")
     _probe_folder(_existing_ancestor(path), option, path)
+    if lock:
+        _HELD.append(FolderLock(path, option))
     return path
 
 

@@ -47,9 +47,13 @@ def default_workers() -> int:
 
 def _exit_with_parent(parent: int, every: float = 1.0) -> None:
     """Worker initialiser: a thread that ends this worker once its coordinator is gone (killed, even with
-    SIGKILL), so no orphan keeps a core busy; a spawned worker otherwise waits on its queue for ever."""
+    SIGKILL), so no orphan keeps a core busy; a spawned worker otherwise waits on its queue for ever.
+    Ctrl-C is the coordinator's to handle (it stops the workers): the worker ignores SIGINT."""
+    import signal
     import threading
     import time
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
     def watch() -> None:
         while os.getppid() == parent:
@@ -81,10 +85,28 @@ class LocalExecutor:
                 on_result(job, fn(job))
             return
         pending = list(reversed(jobs))  # popped from the end: in job order
-        retries: dict[int, int] = {}
         running: dict[Future[JobOutput], Any] = {}
         if self._pool is None:
             self._pool = self._new_pool()
+        try:
+            self._run(pending, running, on_result, log, fn)
+        except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the jobs in flight are dropped, not waited for
+            self._stop_workers()
+            raise
+
+    def _stop_workers(self) -> None:
+        """End the pool's processes now (their jobs' results would be thrown away)."""
+        if self._pool is None:
+            return
+        for proc in list(getattr(self._pool, "_processes", {}).values()):
+            proc.kill()
+        self._pool.shutdown(wait=True, cancel_futures=True)
+        self._pool = None
+
+    def _run(self, pending: list[Any], running: dict[Future[JobOutput], Any], on_result: OnResult,
+             log: Callable[[str], None], fn: JobFn) -> None:
+        assert self._pool is not None
+        retries: dict[int, int] = {}
         while pending or running:
             while pending and len(running) < 2 * self.workers:
                 job = pending.pop()
