@@ -215,24 +215,14 @@ def run_evaluation(
     names = categories + [name for name, _ in users]
     if len(set(names)) != len(names):
         raise EvalError(f"two object sets are called the same: {names}")
-    settings = {
-        "tasks": tasks, "methods": list(methods), "categories": names, "episodes": episodes,
-        "test_object_count": test_object_count,
-        "object_dirs": [str(Path(d).resolve()) for d in object_dirs], "config": config.to_dict(),
-        "config_hash": config.fingerprint(),
-        "models": {k: {"path": str(v.resolve()), "sha256": file_digest(v)} for k, v in models.items()},
-    }
+    settings = _settings(tasks, methods, names, episodes, test_object_count, object_dirs, config, models)
     _check_out(out, settings, resume)
     own = executor is None
     executor = executor or make_executor(workers, ray, ray_address)
     t_start = time.perf_counter()
     try:
-        n_objects = -(-episodes // config.scenes_per_job)  # one object per job ...
-        if test_object_count is not None:
-            n_objects = min(n_objects, test_object_count)  # ... or fewer, visited in turn
-        local = min(executor.workers, default_workers())  # objects are generated on this machine
-        objects = {c: test_objects(c, n_objects, out, max(1, local), progress, log) for c in categories}
-        objects.update(dict(users))
+        objects = _eval_objects(out, categories, users, episodes, test_object_count, config, executor,
+                                progress, log)
         stores, jobs = _stores_and_jobs(out, tasks, objects, episodes, methods, config, models, settings)
         total = len(tasks) * len(objects) * episodes * len(methods)
         remaining = sum(j.planned for j in jobs)
@@ -243,28 +233,67 @@ def run_evaluation(
         done_now = _run_jobs(executor, jobs, stores, total, remaining, progress, log)
         seconds_now = time.perf_counter() - t0
         records = [r for s in stores.values() for r in s.records()]
-        job_errors = [i["error"] for s in stores.values() for i in s.info().values() if i.get("error")]
         results = summarise(records, tasks, methods, names)
         results["settings"] = settings
-        results["run"] = {"episodes_run_now": done_now, "seconds_now": seconds_now,
-                          "episodes_per_s_now": done_now / seconds_now if seconds_now > 0 else None,
-                          "workers": executor.workers, "evaluation_seconds": time.perf_counter() - t_start,
-                          "job_errors": job_errors}
+        results["run"] = _run_info(stores, executor, done_now, seconds_now, t_start)
         atomic_write_text(out / RESULTS, json.dumps(results, indent=2, default=_json_default) + "\n",
                           fsync=False)
         log(format_results(results))
         if report:
-            from tognet.evaluate.report import write_report
-
-            t_report = time.perf_counter()
-            paths = write_report(out, results, records, models=models, run_dir=run_dir, animations=animations,
-                                 config=config, objects=objects, executor=executor, log=log)
-            log(f"report: {paths[0]} ({paths[0].stat().st_size / 1e6:.1f} MB, "
-                f"{time.perf_counter() - t_report:.0f} s)")
+            _report(out, results, records, models, run_dir, animations, config, objects, executor, log)
     finally:
         if own:
             executor.close()
     return results
+
+
+def _settings(tasks: list[str], methods: Sequence[str], names: list[str], episodes: int,
+              test_object_count: int | None, object_dirs: Sequence[str | Path], config: EvalConfig,
+              models: dict[str, Path]) -> dict[str, Any]:
+    """The evaluation's settings as ``evaluation.json`` holds them (models with their sha256)."""
+    return {
+        "tasks": tasks, "methods": list(methods), "categories": names, "episodes": episodes,
+        "test_object_count": test_object_count,
+        "object_dirs": [str(Path(d).resolve()) for d in object_dirs], "config": config.to_dict(),
+        "config_hash": config.fingerprint(),
+        "models": {k: {"path": str(v.resolve()), "sha256": file_digest(v)} for k, v in models.items()},
+    }
+
+
+def _eval_objects(out: Path, categories: list[str], users: list[tuple[str, list[ObjectRecord]]],
+                  episodes: int, test_object_count: int | None, config: EvalConfig, executor: Executor,
+                  progress: bool, log: Callable[[str], None]) -> dict[str, list[ObjectRecord]]:
+    """The test objects per category (generated here, one per job unless capped), then the user sets."""
+    n_objects = -(-episodes // config.scenes_per_job)  # one object per job ...
+    if test_object_count is not None:
+        n_objects = min(n_objects, test_object_count)  # ... or fewer, visited in turn
+    local = min(executor.workers, default_workers())  # objects are generated on this machine
+    objects = {c: test_objects(c, n_objects, out, max(1, local), progress, log) for c in categories}
+    objects.update(dict(users))
+    return objects
+
+
+def _run_info(stores: dict[tuple[str, str], EvalStore], executor: Executor, done_now: int, seconds_now: float,
+              t_start: float) -> dict[str, Any]:
+    """results.json's ``run``: this run's episodes and rate, the workers, total seconds, the jobs' errors."""
+    job_errors = [i["error"] for s in stores.values() for i in s.info().values() if i.get("error")]
+    return {"episodes_run_now": done_now, "seconds_now": seconds_now,
+            "episodes_per_s_now": done_now / seconds_now if seconds_now > 0 else None,
+            "workers": executor.workers, "evaluation_seconds": time.perf_counter() - t_start,
+            "job_errors": job_errors}
+
+
+def _report(out: Path, results: dict[str, Any], records: list[dict[str, Any]], models: dict[str, Path],
+            run_dir: str | Path | None, animations: bool, config: EvalConfig,
+            objects: dict[str, list[ObjectRecord]], executor: Executor, log: Callable[[str], None]) -> None:
+    """Write the report and log its path, size and the seconds it took."""
+    from tognet.evaluate.report import write_report
+
+    t_report = time.perf_counter()
+    paths = write_report(out, results, records, models=models, run_dir=run_dir, animations=animations,
+                         config=config, objects=objects, executor=executor, log=log)
+    log(f"report: {paths[0]} ({paths[0].stat().st_size / 1e6:.1f} MB, "
+        f"{time.perf_counter() - t_report:.0f} s)")
 
 
 def _checked_request(

@@ -468,18 +468,13 @@ def _train(
     progress: bool,
     log: Callable[[str], None],
 ) -> TrainResult:
+    """Train one task's model into ``out`` (see :func:`train`)."""
     config = config or TrainConfig()
     out = Path(out)
     last_path, best_path = out / "last.pt", out / "best.pt"
     _check_request(out, config, resume)
     # read the run to resume (or the checkpoint to start from) before the data, so a bad file fails at once
-    payload = load_checkpoint(last_path, map_location="cpu") if resume else None
-    init: tuple[dict[str, Any], dict[str, Any]] | None = None
-    if init_from is not None:
-        if payload is not None:
-            log(f"note: resuming {out} from its last.pt; init_from={init_from} is ignored")
-        else:
-            init = _load_init(init_from, task, config)
+    payload, init = _resume_or_init(out, last_path, resume, init_from, task, config, log)
 
     seed_everything(config.seed, config.deterministic, config.num_threads)
     tune_allocator()
@@ -489,17 +484,8 @@ def _train(
     state = _start_state(data, task, out, config, device, payload, init, init_from, log)
     init_info = data.desc["init_from"]
 
-    config.save(out / "config.json")
-    atomic_write_text(out / "data.json", json.dumps({**data.desc, "split": split}, indent=2) + "\n",
-                      fsync=False)
-    log(f"task {task}: {split['train_episodes']} training episodes ({split['train_objects']} objects), "
-        f"{split['val_episodes']} validation ({split['val_objects']} objects) in {data.counts['shards']} "
-        f"shards, device {device}")
-
-    loss_config = resolve_loss(config.loss, state.model.action_std)
-    if config.loss.action_sigma_source == "data":
-        log("action term's Sigma^(1/2) from the data's successful actions: "
-            + ", ".join(f"{v:.3g}" for v in loss_config.action_sigma))
+    _write_run_files(out, config, data, task, device, log)
+    loss_config = _loss_config(config, state, log)
     stopped_early = False
     for epoch in range(state.start_epoch, config.epochs):
         if state.bad_epochs >= config.patience:
@@ -518,14 +504,7 @@ def _train(
             raise TrainingError(f"loss is {monitor} at epoch {epoch + 1}; lower the learning rate or check "
                                 "the data (last good state: last.pt)")
         improved = _end_epoch(state, monitor, val_stats, epoch, config, split)
-        common = {"model": state.model, "config": config, "task": task, "data": data.desc, "split": split,
-                  "epoch": epoch + 1, "best": state.best, "metrics": record, "crop_config": data.crop_config}
-        if improved:
-            save_checkpoint(best_path, **common)
-        save_checkpoint(last_path, **common, training={
-            "optimizer": state.optimizer.state_dict(), "scheduler": state.scheduler.state_dict(),
-            "rng_torch": torch.get_rng_state(), "history": state.history, "bad_epochs": state.bad_epochs,
-        })
+        _save_epoch(out, state, data, config, task, epoch, record, improved)
         _write_metrics(out, state.history, state.best, split, task, init_info)
         _log_epoch(log, epoch, train_stats, val_stats, improved)
         if state.bad_epochs >= config.patience and epoch + 1 < config.epochs:
@@ -540,6 +519,55 @@ def _train(
         raise TrainingError(f"{out}: no epoch was trained (epochs={config.epochs})")
     return TrainResult(out=out, best_path=best_path, last_path=last_path, epochs_run=len(state.history),
                        best=state.best, stopped_early=stopped_early, history=state.history)
+
+
+def _resume_or_init(
+    out: Path, last_path: Path, resume: bool, init_from: str | Path | None, task: str, config: TrainConfig,
+    log: Callable[[str], None],
+) -> tuple[dict[str, Any] | None, tuple[dict[str, Any], dict[str, Any]] | None]:
+    """The last.pt payload to resume from (``resume``), else the checkpoint to warm-start from, if any."""
+    payload = load_checkpoint(last_path, map_location="cpu") if resume else None
+    init: tuple[dict[str, Any], dict[str, Any]] | None = None
+    if init_from is not None:
+        if payload is not None:
+            log(f"note: resuming {out} from its last.pt; init_from={init_from} is ignored")
+        else:
+            init = _load_init(init_from, task, config)
+    return payload, init
+
+
+def _write_run_files(out: Path, config: TrainConfig, data: _Data, task: str, device: torch.device,
+                     log: Callable[[str], None]) -> None:
+    """Write config.json and data.json into ``out`` and log the split."""
+    split = data.split
+    config.save(out / "config.json")
+    atomic_write_text(out / "data.json", json.dumps({**data.desc, "split": split}, indent=2) + "\n",
+                      fsync=False)
+    log(f"task {task}: {split['train_episodes']} training episodes ({split['train_objects']} objects), "
+        f"{split['val_episodes']} validation ({split['val_objects']} objects) in {data.counts['shards']} "
+        f"shards, device {device}")
+
+
+def _loss_config(config: TrainConfig, state: _State, log: Callable[[str], None]) -> Any:
+    """The loss settings the run trains on (see :func:`resolve_loss`); logs a data-derived Sigma."""
+    loss_config = resolve_loss(config.loss, state.model.action_std)
+    if config.loss.action_sigma_source == "data":
+        log("action term's Sigma^(1/2) from the data's successful actions: "
+            + ", ".join(f"{v:.3g}" for v in loss_config.action_sigma))
+    return loss_config
+
+
+def _save_epoch(out: Path, state: _State, data: _Data, config: TrainConfig, task: str, epoch: int,
+                record: dict[str, Any], improved: bool) -> None:
+    """Write last.pt (with the training state to resume) and, when the epoch improved, best.pt."""
+    common = {"model": state.model, "config": config, "task": task, "data": data.desc, "split": data.split,
+              "epoch": epoch + 1, "best": state.best, "metrics": record, "crop_config": data.crop_config}
+    if improved:
+        save_checkpoint(out / "best.pt", **common)
+    save_checkpoint(out / "last.pt", **common, training={
+        "optimizer": state.optimizer.state_dict(), "scheduler": state.scheduler.state_dict(),
+        "rng_torch": torch.get_rng_state(), "history": state.history, "bad_epochs": state.bad_epochs,
+    })
 
 
 def _end_epoch(state: _State, monitor: float, val_stats: dict[str, Any], epoch: int, config: TrainConfig,

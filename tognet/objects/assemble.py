@@ -210,49 +210,18 @@ def assemble_object(
       and ``extra`` gains ``part_names`` (``part_names`` or "0", "1", ...), ``part_densities`` (kg/m^3),
       ``part_volumes`` (m^3, each part's own share) and ``part_masses`` (kg), in the parts' order.
     """
-    if not collision_pieces:
-        raise MeshError(f"{object_id}: no collision pieces")
-    if (density is None) == (parts is None):
-        raise MeshError(f"{object_id}: give exactly one of density= and parts=")
-    if not friction > 0:
-        raise MeshError(f"{object_id}: friction must be positive, got {friction}")
+    _check_arguments(object_id, collision_pieces, density, parts, friction)
     extra = dict(extra or {})
     if parts is None:
         assert density is not None
-        if not density > 0:
-            raise MeshError(f"{object_id}: density must be positive, got {density}")
         mass, volume, com, inertia = mass_properties(visual, density)
     else:
-        names = list(part_names) if part_names is not None else [str(i) for i in range(len(parts))]
-        if len(names) != len(parts):
-            raise MeshError(f"{object_id}: {len(names)} part names for {len(parts)} parts")
-        try:
-            masses = part_masses(parts)
-        except MeshError as exc:
-            raise MeshError(f"{object_id}: {exc}") from None
-        mass, volume, com, inertia = combine(masses)
-        visual_volume = float(visual.volume)
-        if abs(volume - visual_volume) > 0.005 * visual_volume:
-            raise MeshError(
-                f"{object_id}: the parts' union ({volume * 1e6:.3f} cm^3) is not the visual "
-                f"({visual_volume * 1e6:.3f} cm^3)"
-            )
+        (mass, volume, com, inertia), part_info = _part_properties(object_id, visual, parts, part_names)
         density = mass / volume
-        extra.update(
-            {
-                "part_names": names,
-                "part_densities": [round(p.density, 6) for p in masses],
-                "part_volumes": [round(p.volume, 12) for p in masses],
-                "part_masses": [round(p.mass, 9) for p in masses],
-            }
-        )
+        extra.update(part_info)
     folder = Path(set_dir) / object_id
     folder.mkdir(parents=True, exist_ok=True)
-    names = []
-    for i, piece in enumerate(collision_pieces):
-        name = f"collision_{i:02d}.obj"
-        write_obj(rounded_hull(piece, object_id, i), folder / name)
-        names.append(name)
+    names = _write_collision(folder, collision_pieces, object_id)
     write_obj(visual, folder / "visual.obj")
     record = ObjectRecord(
         object_id=object_id,
@@ -275,3 +244,55 @@ def assemble_object(
     )
     (folder / "object.xml").write_text(mjcf_text(record))
     return record
+
+
+def _check_arguments(
+    object_id: str, collision_pieces: list[trimesh.Trimesh], density: float | None,
+    parts: list[PartSpec] | None, friction: float,
+) -> None:
+    """Raise MeshError for arguments :func:`assemble_object` cannot use."""
+    if not collision_pieces:
+        raise MeshError(f"{object_id}: no collision pieces")
+    if (density is None) == (parts is None):
+        raise MeshError(f"{object_id}: give exactly one of density= and parts=")
+    if not friction > 0:
+        raise MeshError(f"{object_id}: friction must be positive, got {friction}")
+    if density is not None and not density > 0:
+        raise MeshError(f"{object_id}: density must be positive, got {density}")
+
+
+def _part_properties(
+    object_id: str, visual: trimesh.Trimesh, parts: list[PartSpec], part_names: list[str] | None,
+) -> tuple[tuple[float, float, np.ndarray, np.ndarray], dict[str, Any]]:
+    """The parts' combined mass properties (union checked against the visual) and their ``extra`` entries."""
+    names = list(part_names) if part_names is not None else [str(i) for i in range(len(parts))]
+    if len(names) != len(parts):
+        raise MeshError(f"{object_id}: {len(names)} part names for {len(parts)} parts")
+    try:
+        masses = part_masses(parts)
+    except MeshError as exc:
+        raise MeshError(f"{object_id}: {exc}") from None
+    mass, volume, com, inertia = combine(masses)
+    visual_volume = float(visual.volume)
+    if abs(volume - visual_volume) > 0.005 * visual_volume:
+        raise MeshError(
+            f"{object_id}: the parts' union ({volume * 1e6:.3f} cm^3) is not the visual "
+            f"({visual_volume * 1e6:.3f} cm^3)"
+        )
+    info = {
+        "part_names": names,
+        "part_densities": [round(p.density, 6) for p in masses],
+        "part_volumes": [round(p.volume, 12) for p in masses],
+        "part_masses": [round(p.mass, 9) for p in masses],
+    }
+    return (mass, volume, com, inertia), info
+
+
+def _write_collision(folder: Path, collision_pieces: list[trimesh.Trimesh], object_id: str) -> list[str]:
+    """Write each convex piece's rounded hull as ``collision_NN.obj`` in ``folder``; the file names."""
+    names = []
+    for i, piece in enumerate(collision_pieces):
+        name = f"collision_{i:02d}.obj"
+        write_obj(rounded_hull(piece, object_id, i), folder / name)
+        names.append(name)
+    return names

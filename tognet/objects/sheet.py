@@ -58,6 +58,41 @@ def _extent(meshes: list[trimesh.Trimesh], axis: int) -> float:
     return max(float(np.max(np.abs(np.asarray(m.vertices)[:, axis]))) for m in meshes)
 
 
+def _spans(meshes: list[trimesh.Trimesh]) -> tuple[float, float, float]:
+    """The sheet's common half widths in x and y of a top view and height of a side view (m)."""
+    half_x = _extent(meshes, 0) * 1.06 + 0.005
+    half_y = _extent(meshes, 1) * 1.1 + 0.005
+    half_y = max(half_y, 0.45 * half_x)  # room for the label and the scale bar
+    tallest = max(float(np.ptp(np.asarray(m.vertices)[:, 2])) for m in meshes)
+    z_span = max(tallest * 1.25, 2 * half_y / 3)
+    return half_x, half_y, z_span
+
+
+def _draw_cell(top: plt.Axes, side: plt.Axes, record: ObjectRecord, mesh: trimesh.Trimesh, half_x: float,
+               half_y: float, z_span: float) -> None:
+    """Draw one object's top and side views (standing on the ground line), label and 10 cm bar."""
+    colour = _COLOURS.get(record.kind, _DEFAULT_COLOUR)
+    standing = mesh.copy()
+    standing.vertices = np.asarray(standing.vertices) - [0.0, 0.0, float(mesh.bounds[0, 2])]
+    _draw(top, mesh, "top", colour)
+    _draw(side, standing, "side", colour)
+    top.set_xlim(-half_x, half_x)
+    top.set_ylim(-half_y, half_y)
+    side.set_xlim(-half_x, half_x)
+    side.set_ylim(-0.1 * z_span, 0.9 * z_span)
+    for ax in (top, side):
+        ax.set_aspect("equal", anchor="S" if ax is top else "N")
+        ax.set_xticks([])
+        ax.set_yticks([])
+    top.set_title(_label(record), fontsize=6.5, family="monospace", loc="left", pad=2)
+    side.axhline(0.0, color="0.45", linewidth=0.8)
+    side.text(0.99, 0.93, "side", transform=side.transAxes, fontsize=6, ha="right", va="top", color="0.4")
+    top.text(0.99, 0.97, "top", transform=top.transAxes, fontsize=6, ha="right", va="top", color="0.4")
+    bar_y = -0.9 * half_y
+    top.plot([-0.96 * half_x, -0.96 * half_x + 0.1], [bar_y, bar_y], color="k", linewidth=1.5)
+    top.text(-0.96 * half_x + 0.05, bar_y, "10 cm", fontsize=6, ha="center", va="bottom")
+
+
 def write_contact_sheet(
     set_dir: Path, out_png: Path, max_objects: int = 24, columns: int | None = None
 ) -> Path:
@@ -78,11 +113,7 @@ def write_contact_sheet(
     if not records:
         raise ValueError(f"{set_dir}: the catalog lists no objects")
     meshes: list[trimesh.Trimesh] = [r.load_mesh(r.visual_mesh) for r in records]
-    half_x = _extent(meshes, 0) * 1.06 + 0.005
-    half_y = _extent(meshes, 1) * 1.1 + 0.005
-    half_y = max(half_y, 0.45 * half_x)  # room for the label and the scale bar
-    tallest = max(float(np.ptp(np.asarray(m.vertices)[:, 2])) for m in meshes)
-    z_span = max(tallest * 1.25, 2 * half_y / 3)
+    half_x, half_y, z_span = _spans(meshes)
     columns = columns or (4 if len(records) <= 16 else 6)
     cols = max(1, min(columns, len(records)))
     rows = math.ceil(len(records) / cols)
@@ -107,28 +138,9 @@ def write_contact_sheet(
     )
     for i, (record, mesh) in enumerate(zip(records, meshes, strict=True)):
         r, c = divmod(i, cols)
-        colour = _COLOURS.get(record.kind, _DEFAULT_COLOUR)
         top = fig.add_subplot(grid[2 * r, c])
         side = fig.add_subplot(grid[2 * r + 1, c])
-        standing = mesh.copy()
-        standing.vertices = np.asarray(standing.vertices) - [0.0, 0.0, float(mesh.bounds[0, 2])]
-        _draw(top, mesh, "top", colour)
-        _draw(side, standing, "side", colour)
-        top.set_xlim(-half_x, half_x)
-        top.set_ylim(-half_y, half_y)
-        side.set_xlim(-half_x, half_x)
-        side.set_ylim(-0.1 * z_span, 0.9 * z_span)
-        for ax in (top, side):
-            ax.set_aspect("equal", anchor="S" if ax is top else "N")
-            ax.set_xticks([])
-            ax.set_yticks([])
-        top.set_title(_label(record), fontsize=6.5, family="monospace", loc="left", pad=2)
-        side.axhline(0.0, color="0.45", linewidth=0.8)
-        side.text(0.99, 0.93, "side", transform=side.transAxes, fontsize=6, ha="right", va="top", color="0.4")
-        top.text(0.99, 0.97, "top", transform=top.transAxes, fontsize=6, ha="right", va="top", color="0.4")
-        bar_y = -0.9 * half_y
-        top.plot([-0.96 * half_x, -0.96 * half_x + 0.1], [bar_y, bar_y], color="k", linewidth=1.5)
-        top.text(-0.96 * half_x + 0.05, bar_y, "10 cm", fontsize=6, ha="center", va="bottom")
+        _draw_cell(top, side, record, mesh, half_x, half_y, z_span)
     fig.suptitle(
         f"{set_dir.name}: {len(records)} objects, each from above (top) and from the side (below it, "
         "on a ground line); one scale for all",
