@@ -26,6 +26,8 @@ import typing
 from pathlib import Path
 from typing import Any, Self
 
+from tognet.io import atomic_write_text
+
 
 class ConfigError(ValueError):
     """A config file or dict does not match its declared type."""
@@ -234,7 +236,7 @@ class Config:
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         payload = {"config_type": type(self).__name__, **self.to_dict()}
-        path.write_text(json.dumps(payload, indent=2, sort_keys=False) + "\n")
+        atomic_write_text(path, json.dumps(payload, indent=2, sort_keys=False) + "\n")
         return path
 
     @classmethod

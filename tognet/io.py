@@ -73,6 +73,12 @@ def sha256_file(path: str | Path) -> str:
     return digest.hexdigest()
 
 
+def short_digest(data: bytes) -> str:
+    """The first 16 hex digits of the sha256 of ``data``: how records and settings name a state, an
+    image or a config (collisions are not a concern at these counts)."""
+    return hashlib.sha256(data).hexdigest()[:16]
+
+
 def file_digest(path: str | Path | None) -> str | None:
     """The first 16 hex digits of a file's sha256 (how run settings name a checkpoint), or None."""
     return None if path is None else sha256_file(path)[:16]
@@ -146,4 +152,4 @@ def _command_name() -> str:
 
 
 __all__ = ["LOCK_NAME", "FolderBusy", "FolderLock", "atomic_path", "atomic_write_bytes", "atomic_write_text",
-           "atomic_writer", "file_digest", "sha256_file"]
+           "atomic_writer", "file_digest", "sha256_file", "short_digest"]

@@ -8,6 +8,7 @@ from pathlib import Path
 import typer
 
 from tognet.cli.util import out_file, out_folder, user_errors
+from tognet.io import atomic_write_text
 
 model_app = typer.Typer(help="Inspect and evaluate trained TOG-Net checkpoints.", no_args_is_help=True)
 
@@ -107,7 +108,7 @@ def eval_cmd(
     text = json.dumps(result, indent=2)
     if out is not None:
         out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(text + "\n")
+        atomic_write_text(out, text + "\n")
     typer.echo(text)
 
 

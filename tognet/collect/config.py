@@ -8,7 +8,6 @@ beside its data.
 
 from __future__ import annotations
 
-import hashlib
 import json
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -17,6 +16,7 @@ from typing import Literal
 from tognet.config import Config, ConfigError, ConfigRangeError, doc
 from tognet.grasping.antipodal import AntipodalConfig
 from tognet.grasping.crops import CropConfig
+from tognet.io import short_digest
 from tognet.model.config import TrainConfig
 from tognet.policies.config import PolicyConfig
 from tognet.sim.config import SimConfig
@@ -53,7 +53,7 @@ class CollectConfig(Config):
     def fingerprint(self) -> str:
         """A short hash of the config (stored with every shard, to refuse mixing settings on resume)."""
         text = json.dumps(self.to_dict(), sort_keys=True)
-        return hashlib.sha256(text.encode()).hexdigest()[:16]
+        return short_digest(text.encode())
 
 
 @dataclass(frozen=True)

@@ -102,7 +102,7 @@ def train_round(data_dirs: Sequence[Path], task: str, out: Path, preset: Pipelin
             "best_epoch": result.best.get("epoch"), "seconds": time.perf_counter() - t0,
             "init_from": str(init_from) if init_from else None,
             "val": {k: best_val.get(k) for k in ("count", "loss", "grasp", "task", "action", "metrics")}}
-    marker.write_text(json.dumps(done, indent=2, default=str) + "\n")
+    atomic_write_text(marker, json.dumps(done, indent=2, default=str) + "\n")
     return done
 
 
@@ -270,7 +270,7 @@ def export_models(run: str | Path, out: str | Path, command: str | None = None) 
         shutil.copyfile(src, dst)
         doc = {"name": name, "preset": preset, "command": command, "source_run": str(run),
                "checkpoint_sha256": hashlib.sha256(dst.read_bytes()).hexdigest(), **info}
-        (out / f"{name}.json").write_text(json.dumps(doc, indent=2, default=str) + "\n")
+        atomic_write_text(out / f"{name}.json", json.dumps(doc, indent=2, default=str) + "\n")
         written.append(dst)
     return written
 

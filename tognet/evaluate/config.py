@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import hashlib
 import json
 from dataclasses import dataclass
 
 from tognet.config import Config, doc
+from tognet.io import short_digest
 from tognet.planning.config import PlanConfig
 from tognet.sim.config import SimConfig
 
@@ -35,4 +35,4 @@ class EvalConfig(Config):
 
     def fingerprint(self) -> str:
         """A short hash of the config (stored with every job's results, to refuse mixing settings)."""
-        return hashlib.sha256(json.dumps(self.to_dict(), sort_keys=True).encode()).hexdigest()[:16]
+        return short_digest(json.dumps(self.to_dict(), sort_keys=True).encode())

@@ -15,6 +15,7 @@ import numpy as np
 from tognet.evaluate.config import EvalConfig
 from tognet.evaluate.kinds import GAP_ROWS, ORACLE, ORACLE_GRASP, ORACLE_MOTION, compared, kinds_of
 from tognet.evaluate.subsets import breakdown_title, headline, main_subset
+from tognet.io import atomic_path
 from tognet.jobs.output import JobOutput
 from tognet.objects.record import ObjectRecord
 
@@ -97,7 +98,8 @@ def results_chart(results: dict[str, Any], path: Path) -> Path:
     fig.legend(handles, labels, loc="lower center", ncols=-(-len(methods) // rows), fontsize=8, frameon=False)
     fig.tight_layout(rect=(0, 0.07 * rows, 1, 1))
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
     return path
 
@@ -119,7 +121,8 @@ def subsets_chart(results: dict[str, Any], task: str, path: Path) -> Path:
           f"{breakdown_title(task)} ({cat})")
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
     return path
 
@@ -153,7 +156,8 @@ def gap_chart(results: dict[str, Any], path: Path) -> Path | None:
     fig.legend(handles, labels, loc="lower center", ncols=-(-len(methods) // rows), fontsize=8, frameon=False)
     fig.tight_layout(rect=(0, 0.08 * rows, 1, 1))
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
     return path
 
@@ -232,7 +236,8 @@ def qualitative_figure(objects: Sequence[ObjectRecord], models: dict[str, Any], 
                 ax.set_ylabel(obj.object_id, fontsize=7.5)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=100)
     plt.close(fig)
     return path
 
@@ -342,7 +347,8 @@ def training_curves(run_dir: Path, tasks: Sequence[str], path: Path) -> Path | N
         ax_a.set_ylim(0.4, 1.0)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=100)
     plt.close(fig)
     return path
 
@@ -399,6 +405,7 @@ def learning_curve(run_dir: Path, tasks: Sequence[str], path: Path) -> Path | No
         ax.legend(fontsize=7)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=100)
     plt.close(fig)
     return path

@@ -174,7 +174,7 @@ def _check_out(out: Path, settings: dict[str, Any], resume: bool) -> None:
             "holds no evaluation"
         raise EvalError(f"--out {out} {what}, so there is nothing to resume; drop --resume to start one")
     out.mkdir(parents=True, exist_ok=True)
-    saved.write_text(json.dumps(settings, indent=2) + "\n")
+    atomic_write_text(saved, json.dumps(settings, indent=2) + "\n")
 
 
 def run_evaluation(

@@ -14,7 +14,6 @@ every method that needs one).
 
 from __future__ import annotations
 
-import hashlib
 import time
 import traceback
 import zlib
@@ -25,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from tognet.evaluate.config import EvalConfig
+from tognet.io import short_digest
 from tognet.jobs.models import load_model
 from tognet.jobs.output import JobOutput
 from tognet.jobs.scenes import reset_scene
@@ -88,7 +88,7 @@ def state_digest(sim: Any) -> str:
     """A short hash of the simulator's integration state (positions, velocities, actuators, time): the
     state every trial starts from. (``object_pose`` reads positions MuJoCo derives in a step; right after
     ``reset`` they are those of the last settling step's start, ~1e-7 m off those of the restored state.)"""
-    return hashlib.sha256(np.ascontiguousarray(sim.save_state()).tobytes()).hexdigest()[:16]
+    return short_digest(np.ascontiguousarray(sim.save_state()).tobytes())
 
 
 def run_eval_job(job: EvalJob) -> JobOutput:
@@ -122,7 +122,7 @@ def _run_eval_job(job: EvalJob) -> JobOutput:
         obs = reset_scene(sim, scene_seed, stats)
         if obs is None:
             continue
-        depth_sha = hashlib.sha256(np.ascontiguousarray(obs.depth).tobytes()).hexdigest()[:16]
+        depth_sha = short_digest(np.ascontiguousarray(obs.depth).tobytes())
         facts = sim.task.scene_facts(obs.info.get("layout", {})) if sim.task is not None else {}
         for method, planner in planners.items():
             base = {"task": job.task, "category": job.category, "object_id": job.obj.object_id,

@@ -26,7 +26,7 @@ from tognet.evaluate.kinds import (
     may_be_best,
 )
 from tognet.evaluate.subsets import breakdown_note, breakdown_title, broken_down, headline, main_subset
-from tognet.io import atomic_write_bytes
+from tognet.io import atomic_write_bytes, atomic_write_text
 from tognet.objects.record import ObjectRecord
 
 METHOD_NOTES = {
@@ -434,8 +434,8 @@ def write_report(out: Path, results: dict[str, Any], records: Sequence[dict[str,
     gifs, gif_note = _animations(out, results, records, objects, config, executor, log) if animations else \
         ({t: [] for t in tasks}, "Animations not made (--no-animations).")
     html_path, md_path = out / "report.html", out / "report.md"
-    html_path.write_text(_html(results, pictures, gifs, gif_note, run))
-    md_path.write_text(_markdown(results, pictures, gifs, gif_note, run, out))
+    atomic_write_text(html_path, _html(results, pictures, gifs, gif_note, run))
+    atomic_write_text(md_path, _markdown(results, pictures, gifs, gif_note, run, out))
     return html_path, md_path
 
 

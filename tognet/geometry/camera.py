@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tognet.geometry.transforms import invert_pose, make_pose, transform_points
+from tognet.io import atomic_write_text
 
 
 class DepthImageError(ValueError):
@@ -184,7 +185,7 @@ class Camera:
         """Write the camera as JSON."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(self.to_dict(), indent=2) + "\n")
+        atomic_write_text(path, json.dumps(self.to_dict(), indent=2) + "\n")
         return path
 
     @classmethod

@@ -14,6 +14,7 @@ from tognet.grasping.antipodal import AntipodalConfig, GraspCandidates, sample_a
 from tognet.grasping.cem import CEMConfig, ScoreFn, cem
 from tognet.grasping.depth import DepthScene
 from tognet.grasping.nms import NMSConfig, nms
+from tognet.io import atomic_path
 
 
 def depth_to_rgb(depth: NDArray[np.float32], table: NDArray[np.float32] | None = None,
@@ -109,7 +110,8 @@ def draw_grasps(
     draw.text((6, 6), text, fill=(255, 255, 0))
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    img.save(out)
+    with atomic_path(out) as tmp:
+        img.save(tmp)
     return out
 
 

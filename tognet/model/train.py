@@ -37,7 +37,7 @@ from tqdm import tqdm
 from tognet.data.episodes import dataset_configs, describe_dataset
 from tognet.data.stream import Batch, EpisodeStream
 from tognet.errors import TognetError
-from tognet.io import atomic_write_text, sha256_file
+from tognet.io import atomic_path, atomic_write_text, sha256_file
 from tognet.model.checkpoint import (
     CheckpointError,
     load_checkpoint,
@@ -217,7 +217,8 @@ def plot_curves(history: Sequence[dict[str, Any]], path: Path) -> Path:
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=90)
     plt.close(fig)
     return path
 

@@ -19,6 +19,7 @@ import numpy as np
 import trimesh
 
 from tognet.errors import TognetError
+from tognet.io import atomic_write_text
 from tognet.objects.record import ObjectRecord
 
 
@@ -32,7 +33,7 @@ def write_obj(mesh: trimesh.Trimesh, path: Path) -> None:
     faces = np.asarray(mesh.faces, dtype=np.int64) + 1
     lines = [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in vertices]
     lines += [f"f {a} {b} {c}" for a, b, c in faces]
-    path.write_text("\n".join(lines) + "\n")
+    atomic_write_text(path, "\n".join(lines) + "\n")
 
 
 def rounded_hull(piece: trimesh.Trimesh, object_id: str = "", index: int = 0) -> trimesh.Trimesh:
@@ -242,7 +243,7 @@ def assemble_object(
         folder=str(folder.resolve()),
         extra=extra,
     )
-    (folder / "object.xml").write_text(mjcf_text(record))
+    atomic_write_text(folder / "object.xml", mjcf_text(record))
     return record
 
 

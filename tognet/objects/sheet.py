@@ -18,6 +18,7 @@ import numpy as np  # noqa: E402
 import trimesh  # noqa: E402
 from matplotlib.collections import PolyCollection  # noqa: E402
 
+from tognet.io import atomic_path
 from tognet.objects.record import ObjectRecord, load_catalog  # noqa: E402
 
 _COLOURS = {"primitive": (0.35, 0.55, 0.85), "complex": (0.85, 0.55, 0.3), "realistic": (0.4, 0.7, 0.45)}
@@ -148,6 +149,7 @@ def write_contact_sheet(
         fontsize=10,
     )
     out_png.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out_png, dpi=130, bbox_inches="tight")
+    with atomic_path(out_png) as tmp:
+        fig.savefig(tmp, dpi=130, bbox_inches="tight")
     plt.close(fig)
     return out_png

@@ -34,6 +34,7 @@ from tognet.errors import TognetError
 from tognet.geometry import CameraIntrinsics, DepthImageError
 from tognet.geometry.camera import focal_length_problem
 from tognet.geometry.transforms import invert_pose, make_pose
+from tognet.io import atomic_path, atomic_write_text
 
 INTRINSICS_KEYS = ("width", "height", "fx", "fy", "cx", "cy")
 #: Other names for the intrinsics' fields (librealsense writes ppx/ppy).
@@ -207,7 +208,8 @@ def save_depth_png(path: str | Path, depth: ArrayLike) -> Path:
     mm[valid] = np.rint(d[valid] * 1000.0).astype(np.uint16)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    Image.fromarray(mm).save(path)
+    with atomic_path(path) as tmp:
+        Image.fromarray(mm).save(tmp)
     return path
 
 
@@ -215,7 +217,7 @@ def save_intrinsics(path: str | Path, k: CameraIntrinsics) -> Path:
     """Write the intrinsics file :func:`load_intrinsics` reads."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(intrinsics_dict(k), indent=2) + "\n")
+    atomic_write_text(path, json.dumps(intrinsics_dict(k), indent=2) + "\n")
     return path
 
 
@@ -226,7 +228,7 @@ def save_camera_pose(path: str | Path, world_from_camera: ArrayLike) -> Path:
     payload = {"world_from_camera": np.asarray(world_from_camera, dtype=np.float64).tolist(),
                "frame": "world_from_camera; OpenCV camera axes (x right, y down, z forward); world z = 0 is "
                         "the table top, z up"}
-    path.write_text(json.dumps(payload, indent=2) + "\n")
+    atomic_write_text(path, json.dumps(payload, indent=2) + "\n")
     return path
 
 

@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tognet.errors import TognetError
+from tognet.io import atomic_path
 
 
 class RenderError(TognetError):
@@ -122,8 +123,9 @@ class GifRecorder:
         images = [Image.fromarray(self.frames[i]) for i in keep]
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        images[0].save(path, save_all=True, append_images=images[1:], duration=[int(d) for d in delays],
-                       loop=0, disposal=1)
+        with atomic_path(path) as tmp:
+            images[0].save(tmp, save_all=True, append_images=images[1:], duration=[int(d) for d in delays],
+                           loop=0, disposal=1)
         return path
 
     def close(self) -> None:
