@@ -150,8 +150,7 @@ def ws(tmp_path_factory):
                          ("neg", {"fx": -365.0}), ("wide", {"width": 640, "height": 480, "cx": 320.0,
                                                             "cy": 240.0})):
         (root / f"intr_{name}.json").write_text(json.dumps({**base, **change}))
-    bad_camera = json.loads((root / "camera.json").read_text())
-    bad_camera["intrinsics"] = {**bad_camera["intrinsics"], "fx": 1.0, "fy": 1.0}
+    bad_camera = {**json.loads((root / "camera.json").read_text()), "fx": 1.0, "fy": 1.0}
     (root / "camera_f1.json").write_text(json.dumps(bad_camera))
     (root / "pose_bad.json").write_text(json.dumps({"world_from_camera": [[2, 0, 0, 0], [0, 1, 0, 0],
                                                                           [0, 0, 1, 0], [0, 0, 0, 1]]}))

@@ -1,3 +1,5 @@
+import json
+
 import numpy as np
 import pytest
 
@@ -82,3 +84,19 @@ def test_validate_depth_cases():
         validate_depth(np.zeros((6, 8)), k)
     with pytest.raises(DepthImageError, match="2-D"):
         validate_depth(np.zeros((2, 6, 8)), k)
+
+
+def test_one_camera_file_serves_intrinsics_and_pose_and_the_older_layout_still_loads(tmp_path):
+    from tognet.planning.camera import load_camera_pose, load_intrinsics
+
+    cam = Camera.looking_down(CameraIntrinsics.kinect2(), [0.0, 0.0, 1.0], yaw=0.1)
+    path = cam.save(tmp_path / "cam.json")
+    assert load_intrinsics(path) == cam.intrinsics
+    np.testing.assert_allclose(load_camera_pose(path), cam.pose)
+    k = cam.intrinsics
+    old = {"intrinsics": {"width": k.width, "height": k.height, "fx": k.fx, "fy": k.fy, "cx": k.cx,
+                          "cy": k.cy}, "pose": cam.pose.tolist()}
+    (tmp_path / "old.json").write_text(json.dumps(old))
+    loaded = Camera.load(tmp_path / "old.json")
+    assert loaded.intrinsics == cam.intrinsics and load_intrinsics(tmp_path / "old.json") == cam.intrinsics
+    np.testing.assert_allclose(load_camera_pose(tmp_path / "old.json"), cam.pose)

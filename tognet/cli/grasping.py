@@ -73,7 +73,7 @@ def load_camera(camera: Path, camera_pose: Path | None) -> Camera:
             data = json.loads(camera.read_text())
         except (json.JSONDecodeError, UnicodeDecodeError):  # load_intrinsics has read it already
             data = {}
-        if not (isinstance(data, dict) and "pose" in data):
+        if not (isinstance(data, dict) and ("world_from_camera" in data or "pose" in data)):
             raise CameraFileError(
                 f"--camera {camera}: holds intrinsics but no pose; pass --camera-pose FILE too (`tognet sim "
                 "--depth-png d.png` writes d.intrinsics.json and d.pose.json)")
@@ -85,8 +85,8 @@ def load_camera(camera: Path, camera_pose: Path | None) -> Camera:
 def grasps(
     depth: Path = typer.Option(..., "--depth", help="Depth image: .npy/.npz (float metres, or integer "
                                "millimetres) or 16-bit .png (millimetres, 0 = no reading)."),
-    camera: Path = typer.Option(..., "--camera", help="Camera JSON: {\"intrinsics\": {width, height, fx, fy, "
-                                "cx, cy (pixels)}, \"pose\": 4 x 4 world_from_camera} (Camera.save), or an "
+    camera: Path = typer.Option(..., "--camera", help="Camera JSON: {width, height, fx, fy, cx, cy (pixels), "
+                                "\"world_from_camera\": 4 x 4} (Camera.save), or an "
                                 "intrinsics file such as `tognet sim --depth-png d.png` writes "
                                 "(d.intrinsics.json) with --camera-pose."),
     camera_pose: Path | None = typer.Option(

@@ -155,27 +155,27 @@ class Camera:
         return uv, z
 
     def to_dict(self) -> dict:
-        """JSON-compatible description (intrinsics and the 4x4 pose)."""
+        """The camera file: the intrinsics (``width`` ... ``cy``, as ``tognet plan --intrinsics`` reads
+        them) and the pose (``world_from_camera``, as ``--camera-pose`` reads it) in one JSON object, so
+        the same file serves both options."""
         k = self.intrinsics
-        return {
-            "intrinsics": {
-                "width": k.width, "height": k.height, "fx": k.fx, "fy": k.fy, "cx": k.cx, "cy": k.cy,
-            },
-            "pose": self.pose.tolist(),
-            "frame": "world_from_camera, OpenCV camera axes (x right, y down, z forward)",
-        }
+        return {"width": k.width, "height": k.height, "fx": k.fx, "fy": k.fy, "cx": k.cx, "cy": k.cy,
+                "world_from_camera": self.pose.tolist(),
+                "frame": "world_from_camera; OpenCV camera axes (x right, y down, z forward)"}
 
     @classmethod
     def from_dict(cls, data: dict) -> Camera:
-        """Inverse of :meth:`to_dict`; a malformed description raises ValueError naming the field."""
+        """Inverse of :meth:`to_dict` (the older layout, ``{"intrinsics": {...}, "pose": [...]}``, is read
+        too); a malformed description raises ValueError naming the field."""
         try:
-            k = data["intrinsics"]
+            k = data["intrinsics"] if isinstance(data.get("intrinsics"), dict) else data
             intr = CameraIntrinsics(
                 width=int(k["width"]), height=int(k["height"]), fx=float(k["fx"]), fy=float(k["fy"]),
                 cx=float(k["cx"]), cy=float(k["cy"]),
             )
-            pose = np.asarray(data["pose"], dtype=np.float64)
-        except (KeyError, TypeError) as exc:
+            pose = np.asarray(data["world_from_camera"] if "world_from_camera" in data else data["pose"],
+                              dtype=np.float64)
+        except (KeyError, TypeError, AttributeError) as exc:
             raise ValueError(f"camera description is missing or has a malformed field: {exc}") from exc
         if intr.width <= 0 or intr.height <= 0 or intr.fx <= 0 or intr.fy <= 0:
             raise ValueError(f"camera intrinsics must be positive, got {intr}")

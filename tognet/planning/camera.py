@@ -40,7 +40,8 @@ INTRINSICS_KEYS = ("width", "height", "fx", "fy", "cx", "cy")
 #: Other names for the intrinsics' fields (librealsense writes ppx/ppy).
 _ALIASES = {"ppx": "cx", "ppy": "cy"}
 #: Keys an intrinsics file may carry that do not change anything (descriptions).
-_IGNORED = ("model", "frame", "comment", "description", "units", "camera", "serial")
+_IGNORED = ("model", "frame", "comment", "description", "units", "camera", "serial",
+            "world_from_camera", "pose")  # a camera file also holds the pose
 _DISTORTION = ("coeffs", "distortion", "dist_coeffs", "d")
 
 
@@ -73,7 +74,8 @@ def load_intrinsics(source: str | Path | dict[str, Any] | CameraIntrinsics) -> C
     """Pinhole intrinsics from a JSON file, a dict or :class:`CameraIntrinsics`.
 
     The JSON object holds ``width``, ``height`` (pixels, integers), ``fx``, ``fy``, ``cx``, ``cy`` (pixels).
-    Also accepted: the same under an ``"intrinsics"`` key (a camera file written by ``Camera.save``), the
+    A camera file (``Camera.save``) is such an object with the pose beside (``world_from_camera``). Also
+    accepted: the same under an ``"intrinsics"`` key (camera files of older versions), the
     names ``ppx``/``ppy`` for ``cx``/``cy`` (librealsense), descriptive keys (``model``, ``frame``,
     ``comment``, ...) and all-zero distortion coefficients (``coeffs``). Anything else (an unknown key,
     a missing or non-positive value, a principal point outside the image, non-zero distortion) raises
@@ -142,8 +144,9 @@ def intrinsics_dict(k: CameraIntrinsics) -> dict[str, Any]:
 def load_camera_pose(source: str | Path | ArrayLike) -> NDArray[np.float64]:
     """The camera pose (world_from_camera, 4 x 4) from a JSON file or an array.
 
-    The file holds ``{"world_from_camera": [[...], [...], [...], [...]]}`` (also accepted: ``"pose"``, as
-    ``Camera.save`` writes, or a bare 4 x 4 list). The world frame's z = 0 plane must be the table top,
+    The file holds ``{"world_from_camera": [[...], [...], [...], [...]]}`` (a camera file of
+    ``Camera.save``, with the intrinsics beside, is one; also accepted: ``"pose"``, as older camera files
+    have it, or a bare 4 x 4 list). The world frame's z = 0 plane must be the table top,
     z up; the rotation must be proper and the camera above the table, looking at it.
     """
     where = "camera pose"
