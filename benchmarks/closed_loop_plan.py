@@ -104,7 +104,8 @@ def _user_trial(sim: Any, task: str, method: str, depth: np.ndarray, camera: Any
     the plan was made on the tool."""
     import tognet
     from tognet.errors import TognetError
-    from tognet.planning.camera import intrinsics_dict, plane_from_pose
+    from tognet.planning.camera import intrinsics_dict
+    from tognet.planning.table import plane_from_pose
 
     mm = np.where(np.isfinite(depth), np.rint(depth * 1000.0), 0).astype(np.uint16)
     t0 = time.perf_counter()

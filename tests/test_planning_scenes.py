@@ -20,13 +20,9 @@ from tognet.cli import app
 from tognet.geometry import Camera, CameraIntrinsics
 from tognet.grasping.depth import fill_holes, fill_holes_by_height, height_map
 from tognet.grasping.synthetic import Box, Cylinder, render_depth, t_shape
-from tognet.planning.camera import (
-    NoObjectError,
-    plane_from_pose,
-    save_depth_png,
-    save_intrinsics,
-    segment_objects,
-)
+from tognet.planning.camera import save_depth_png, save_intrinsics
+from tognet.planning.segment import NoObjectError, segment_objects
+from tognet.planning.table import plane_from_pose
 from tognet.planning.user import UserPlanner
 from tognet.sim.glcamera import GLDepthCamera, SensorModel, no_return_below
 
@@ -183,13 +179,13 @@ def test_only_a_wall_is_refused_and_the_wall_named():
     planner_free = CameraIntrinsics(width=640, height=480, fx=615.0, fy=615.0, cx=320.3, cy=238.9)
     camera = Camera.aimed_at(planner_free, [-0.4, 0.0, 0.0], 0.8, math.radians(25), 0.0, 0.2)
     depth = render_depth(camera, [WALL])
-    from tognet.planning.camera import fit_table_plane
+    from tognet.planning.table import fit_table_plane
 
     plane = fit_table_plane(depth, planner_free)
     height = height_map(depth, Camera(planner_free, plane.table_from_camera()))
     found = segment_objects(height, depth, planner_free, plane.table_from_camera())
     assert len(found) == 1 and "a wall?" in found[0].rejected
-    from tognet.planning.camera import pick_object
+    from tognet.planning.segment import pick_object
 
     with pytest.raises(NoObjectError, match="like something the gripper can pick up; seen: #0: .* a wall?"):
         pick_object(found)
@@ -281,7 +277,7 @@ def test_the_table_not_the_floor_that_fills_more_of_the_image():
     table = Box((0.0, 0.0, -0.02), (0.61, 0.38, 0.02))
     camera = Camera.aimed_at(KINECT2, [-0.45, 0.25, 0.0], 1.1, math.radians(30), 2.4, 0.5)
     depth = render_depth(camera, [table, *t_shape(-0.4, 0.2, yaw=0.3)], table_z=-0.75)
-    from tognet.planning.camera import fit_table_plane
+    from tognet.planning.table import fit_table_plane
 
     truth = plane_from_pose(camera.pose)
     on_floor = np.mean(height_map(depth, camera) < -0.5)

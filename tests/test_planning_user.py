@@ -11,13 +11,8 @@ from tognet.cli import app
 from tognet.geometry import Camera, CameraIntrinsics
 from tognet.geometry.transforms import invert_pose, make_pose
 from tognet.grasping.synthetic import Box, render_depth, t_shape, tilted_camera
-from tognet.planning.camera import (
-    load_intrinsics,
-    plane_from_pose,
-    save_camera_pose,
-    save_depth_png,
-    save_intrinsics,
-)
+from tognet.planning.camera import load_intrinsics, save_camera_pose, save_depth_png, save_intrinsics
+from tognet.planning.table import plane_from_pose
 from tognet.planning.user import SIM_CAMERA_HEIGHT, UserPlanConfig, UserPlanner
 
 TASK = "hammering"

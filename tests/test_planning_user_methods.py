@@ -14,9 +14,10 @@ from typer.testing import CliRunner
 from tognet.cli import app
 from tognet.geometry import Camera
 from tognet.models import MODELS_DIR, default_checkpoint
-from tognet.planning.camera import plane_from_pose, save_camera_pose, save_depth_png, save_intrinsics
+from tognet.planning.camera import save_camera_pose, save_depth_png, save_intrinsics
 from tognet.planning.confidence import file_digest, low_confidence, threshold
 from tognet.planning.methods import BEST_FIRST, METHOD_TABLE, NEEDS, make_planner
+from tognet.planning.table import plane_from_pose
 from tognet.planning.user import PlanInputError, UserPlanConfig, UserPlanner
 from tognet.tasks import TASK_NAMES, get_task
 

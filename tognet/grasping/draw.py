@@ -22,7 +22,7 @@ def depth_to_rgb(depth: NDArray[np.float32], table: NDArray[np.float32] | None =
     """Grey-scale rendering (near = bright) of a depth image; holes are dark red.
 
     ``table``: the table's depth along every pixel's ray (the plane's, see
-    :meth:`tognet.planning.camera.TablePlane.depth_of_rays`): the grey then shows how far in front of the
+    :meth:`tognet.planning.table.TablePlane.depth_of_rays`): the grey then shows how far in front of the
     table each surface is, from black (the table) to white (``span`` m or more), whatever the camera's tilt
     (a global scale lets a tool on the far half of a tilted table fade into it); surfaces more than 2 cm
     behind the table (a floor past its edge) are dark blue."""

@@ -18,7 +18,7 @@ this module builds the view and states the plan, and searches nothing itself. St
    computed; holes (zeros, NaN: no reading) are filled in height, each from its lowest neighbouring
    surface (:func:`tognet.grasping.depth.fill_holes_by_height`), for the sampler and the crops only.
 3. **objects**: what stands on the table, from measured pixels only (a hole never makes or enlarges an
-   object; :func:`tognet.planning.camera.segment_objects`), each judged on whether it looks like something
+   object; :func:`tognet.planning.segment.segment_objects`), each judged on whether it looks like something
    a gripper picks up (size, height, share measured, not a wall). The plan is made on the largest that
    does near the image's centre (else the nearest to it; the next one when the gripper finds no grasp on
    it), or on the one the caller names (``object``: index or pixel); every other is replaced by the table.
@@ -54,23 +54,7 @@ from tognet.geometry import Camera, CameraIntrinsics, DepthImageError, validate_
 from tognet.grasping.antipodal import AntipodalConfig, GraspCandidates, sample_antipodal
 from tognet.grasping.depth import DepthScene, fill_holes_by_height, height_map, load_depth_file
 from tognet.grasping.nms import NMSConfig
-from tognet.planning.camera import (
-    NoObjectError,
-    PlaneFitConfig,
-    SegmentConfig,
-    TableObject,
-    TablePlane,
-    check_image_size,
-    choice_reason,
-    fit_table_plane,
-    load_camera_pose,
-    load_intrinsics,
-    mask_to_table,
-    pick_object,
-    plane_from_pose,
-    segment_objects,
-    table_noise,
-)
+from tognet.planning.camera import check_image_size, load_camera_pose, load_intrinsics
 from tognet.planning.confidence import low_confidence
 from tognet.planning.config import PlanConfig, ReachConfig
 from tognet.planning.methods import (
@@ -86,6 +70,17 @@ from tognet.planning.methods import (
 )
 from tognet.planning.plan import Plan
 from tognet.planning.reach import ArmReach, FramedReach
+from tognet.planning.segment import (
+    NoObjectError,
+    SegmentConfig,
+    TableObject,
+    choice_reason,
+    mask_to_table,
+    pick_object,
+    segment_objects,
+    table_noise,
+)
+from tognet.planning.table import PlaneFitConfig, TablePlane, fit_table_plane, plane_from_pose
 from tognet.planning.user_plan import ArmPlan, PlannedGrasp, UserPlan
 from tognet.policies.config import PolicyConfig
 from tognet.policies.view import SceneView

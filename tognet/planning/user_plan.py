@@ -14,8 +14,8 @@ from numpy.typing import NDArray
 
 from tognet.geometry import Camera, CameraIntrinsics
 from tognet.io import atomic_write_bytes
-from tognet.planning.camera import TablePlane
 from tognet.planning.reach import ReachChoice
+from tognet.planning.table import TablePlane
 from tognet.tasks import reference_points
 
 
@@ -158,7 +158,7 @@ class UserPlan:
     ``timing``: seconds per stage (read, table, objects, candidates, then the method's: grasp, action,
     alternatives, rate, with an arm reach) and ``total`` (the models' loading is not part of it).
     ``warnings``: one line each (several objects, low confidence, ...). ``objects``:
-    every region seen standing on the table (:meth:`tognet.planning.camera.TableObject.describe`: those
+    every region seen standing on the table (:meth:`tognet.planning.segment.TableObject.describe`: those
     that look like something to pick up first, each with its index and, if not, why); ``object``: the one
     planned on, with ``why`` it was chosen."""
 
