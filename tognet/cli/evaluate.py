@@ -94,7 +94,7 @@ def evaluate_cmd(
     out_folder(out)
     if run is not None:
         check_run_folder(run, tasks)
-    models = task_models(task_model)
+    models = task_models(task_model, tasks)
     cfg = EvalConfig.load(config) if config else EvalConfig()
     cfg = cfg.replace(sim=robot_config(cfg.sim, robot))
     if scenes_per_job is not None:

@@ -85,16 +85,24 @@ def task_list(spec: str) -> list[str]:
     return [check_task_name(n, (*TASK_NAMES, "all", "both") if n == spec else TASK_NAMES) for n in names]
 
 
-def task_models(pairs: list[str]) -> dict[str, Path]:
+def task_models(pairs: list[str], tasks: Iterable[str] | None = None) -> dict[str, Path]:
     """``--task-model NAME=PATH`` options as {name: checkpoint}: NAME a task (its TOG-Net) or
-    ``<task>_search`` (its action-conditioned model, for TOG-Net+ActionSearch)."""
+    ``<task>_search`` (its action-conditioned model, for TOG-Net+ActionSearch). A name given twice, or
+    (with ``tasks``) one for a task the command does not run, is refused rather than silently unused."""
     out: dict[str, Path] = {}
     for pair in pairs:
         name, sep, path = pair.partition("=")
         if not sep or not name or not path:
             raise ValueError(f"--task-model takes NAME=PATH, got '{pair}'")
         suffix = "_search" if name.endswith("_search") else ""
-        out[task_list(name.removesuffix(suffix))[0] + suffix] = Path(path)
+        task = task_list(name.removesuffix(suffix))[0]
+        key = task + suffix
+        if key in out:
+            raise ValueError(f"--task-model {key} is given twice ({out[key]} and {path}); give it once")
+        if tasks is not None and task not in set(tasks):
+            raise ValueError(f"--task-model {pair}: this run evaluates {', '.join(tasks)}, not {task}; the "
+                             "model would not be used")
+        out[key] = Path(path)
     return out
 
 
