@@ -541,7 +541,8 @@ CASES: dict[str, Case] = {
     "eval-task": Case("evaluate --task juggling --episodes 1 --out @out", "juggling"),
     "eval-methods": Case(f"{E} --methods TOG-Nett", "tog-nett"),
     "eval-robot-unknown": Case(f"{E} --robot kuka", "kuka"),
-    "eval-task-model-other-task": Case(f"{E} --task-model sweeping=tognet/models/sweeping.pt", "not sweeping"),
+    "eval-task-model-other-task": Case(f"{E} --task-model sweeping=tognet/models/sweeping.pt",
+                                       "not sweeping"),
     "eval-task-model-twice": Case(f"{E} --task-model hammering=tognet/models/hammering.pt "
                                   "--task-model hammering=tognet/models/hammering.pt", "given twice"),
     "eval-category": Case("evaluate --task hammering --episodes 1 --category pg-fancy --out @out",

@@ -216,6 +216,27 @@ def test_a_resumed_evaluation_reruns_exactly_the_missing_jobs(evaluation, models
         _run(copy, models, episodes=3, resume=True, executor=LocalExecutor(0), report=False)
 
 
+def test_a_resume_compares_models_by_content_not_by_path(evaluation, models, tmp_path):
+    import shutil
+
+    out, _ = evaluation
+    copy = tmp_path / "eval"
+    shutil.copytree(out, copy)
+    moved = {}
+    for name, path in models.items():  # the same files at other paths: the same models
+        moved[name] = tmp_path / "elsewhere" / f"{name}.pt"
+        moved[name].parent.mkdir(exist_ok=True)
+        shutil.copy(path, moved[name])
+    again = _run(copy, moved, resume=True, executor=LocalExecutor(0), report=False)
+    assert again["run"]["episodes_run_now"] == 0
+    settings = json.loads((copy / "evaluation.json").read_text())  # as if started with other weights
+    entry = next(v for v in settings["models"].values() if isinstance(v, dict) and "sha256" in v)
+    entry["sha256"] = "0" * len(entry["sha256"])
+    (copy / "evaluation.json").write_text(json.dumps(settings))
+    with pytest.raises(EvalError, match="differs in models"):
+        _run(copy, models, resume=True, executor=LocalExecutor(0), report=False)
+
+
 def _same_counts(a, b):
     def counts(res):
         return {(t, m): (s["methods"][m]["successes"], s["methods"][m]["valid"])

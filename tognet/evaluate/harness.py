@@ -155,6 +155,14 @@ def user_objects(folder: Path) -> tuple[str, list[ObjectRecord]]:
     return folder.resolve().name, records
 
 
+def _by_content(settings: Any) -> Any:
+    """Settings as a resume compares them: a file named with its digest is the digest (the same model at
+    another path is the same model; another model at the same path is not)."""
+    if isinstance(settings, dict):
+        return {k: _by_content(v) for k, v in settings.items() if not (k == "path" and "sha256" in settings)}
+    return [_by_content(v) for v in settings] if isinstance(settings, list) else settings
+
+
 def _check_out(out: Path, settings: dict[str, Any], resume: bool) -> None:
     if out.exists() and not out.is_dir():
         raise EvalError(f"{out}: exists and is not a folder; pass another --out")
@@ -163,8 +171,8 @@ def _check_out(out: Path, settings: dict[str, Any], resume: bool) -> None:
         if not resume:
             raise EvalError(f"{out}: already holds an evaluation; pass --resume to continue it or another "
                             "--out")
-        old = json.loads(saved.read_text())
-        new = json.loads(json.dumps(settings))
+        old = _by_content(json.loads(saved.read_text()))
+        new = _by_content(json.loads(json.dumps(settings)))
         if old != new:
             diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
             raise SettingsChanged(f"{saved}: the evaluation was started with other settings (differs in "
