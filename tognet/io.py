@@ -7,9 +7,11 @@ temporary behind. Digests name datasets' shards and the checkpoints that run set
 
 from __future__ import annotations
 
+import errno
 import fcntl
 import hashlib
 import os
+import shutil
 import sys
 import time
 from collections.abc import Iterator
@@ -20,10 +22,23 @@ from typing import Any, BinaryIO
 from tognet.errors import TognetError
 
 
+class DiskFull(TognetError):
+    """A write ran out of space; the message names the file, what it needed and what is free."""
+
+
+def _disk_full(path: Path, needed: int | None) -> DiskFull:
+    free = shutil.disk_usage(path.parent).free if path.parent.exists() else 0
+    size = "" if needed is None else f"{needed / 1e6:.1f} MB to write, "
+    return DiskFull(f"no space left on the device writing {path} ({size}{free / 1e6:.1f} MB free there): "
+                    "nothing was written to it; free some space, then run the same command again (with "
+                    "--resume where it takes one)")
+
+
 @contextmanager
-def atomic_writer(path: str | Path, *, fsync: bool = True) -> Iterator[BinaryIO]:
+def atomic_writer(path: str | Path, *, fsync: bool = True, size: int | None = None) -> Iterator[BinaryIO]:
     """A binary file to write ``path`` through: renamed over ``path`` when the block ends without an
-    error (flushed to disk first with ``fsync``), deleted when it raises. The parent folder is made."""
+    error (flushed to disk first with ``fsync``), deleted when it raises. The parent folder is made. A
+    full disk is :class:`DiskFull` naming the file (``size``: what it was to hold, when known)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
@@ -34,6 +49,10 @@ def atomic_writer(path: str | Path, *, fsync: bool = True) -> Iterator[BinaryIO]
             if fsync:
                 os.fsync(fh.fileno())
         os.replace(tmp, path)
+    except OSError as exc:
+        if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            raise _disk_full(path, size) from None
+        raise
     finally:
         tmp.unlink(missing_ok=True)
 
@@ -48,13 +67,17 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     try:
         yield tmp
         os.replace(tmp, path)
+    except OSError as exc:
+        if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            raise _disk_full(path, None) from None
+        raise
     finally:
         tmp.unlink(missing_ok=True)
 
 
 def atomic_write_bytes(path: str | Path, data: bytes, *, fsync: bool = True) -> Path:
     """Write ``data`` to ``path`` whole or not at all (:func:`atomic_writer`); returns the path."""
-    with atomic_writer(path, fsync=fsync) as fh:
+    with atomic_writer(path, fsync=fsync, size=len(data)) as fh:
         fh.write(data)
     return Path(path)
 
@@ -151,5 +174,5 @@ def _command_name() -> str:
     return " ".join(words)
 
 
-__all__ = ["LOCK_NAME", "FolderBusy", "FolderLock", "atomic_path", "atomic_write_bytes", "atomic_write_text",
-           "atomic_writer", "file_digest", "sha256_file", "short_digest"]
+__all__ = ["LOCK_NAME", "DiskFull", "FolderBusy", "FolderLock", "atomic_path", "atomic_write_bytes",
+           "atomic_write_text", "atomic_writer", "file_digest", "sha256_file", "short_digest"]

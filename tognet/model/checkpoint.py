@@ -31,6 +31,7 @@ from __future__ import annotations
 import datetime as _dt
 import functools
 import hashlib
+import io
 import json
 import subprocess
 from pathlib import Path
@@ -41,7 +42,7 @@ import torch
 import tognet
 from tognet.config import ConfigError
 from tognet.errors import TognetError
-from tognet.io import atomic_writer, sha256_file
+from tognet.io import atomic_write_bytes, sha256_file
 from tognet.model.config import ArchConfig, TrainConfig
 from tognet.model.network import TOGNet
 from tognet.tasks import GRASP_ONLY
@@ -169,8 +170,9 @@ def save_checkpoint(
         "training": training,
     }
     payload["digest"] = content_digest(payload)
-    with atomic_writer(path, fsync=False) as fh:
-        torch.save(payload, fh)
+    buffer = io.BytesIO()  # serialised in memory first: a full disk is then a plain OSError naming the
+    torch.save(payload, buffer)  # file, not an error from inside torch's zip writer
+    atomic_write_bytes(path, buffer.getvalue(), fsync=False)
     return path
 
 

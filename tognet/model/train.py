@@ -303,7 +303,7 @@ def _check_request(out: Path, config: TrainConfig, resume: bool) -> None:
     if not resume and (last_path.exists() or best_path.exists()):
         found = "last.pt" if last_path.exists() else "best.pt"
         raise TrainingError(f"{out}: already holds a training run ({found}); pass --resume or another --out")
-    if resume and not last_path.exists():
+    if resume and not last_path.exists() and not (out / "config.json").exists():
         raise TrainingError(f"{last_path}: nothing to resume (no last.pt in {out})")
     if config.batch_size < 2:
         raise TrainingError("batch_size must be >= 2 (batch norm needs two samples)")
@@ -486,6 +486,7 @@ def _train(
     init_info = data.desc["init_from"]
 
     _write_run_files(out, config, data, task, device, log)
+    _repair_best(out, state, data, config, task, payload, log)
     loss_config = _loss_config(config, state, log)
     stopped_early = False
     for epoch in range(state.start_epoch, config.epochs):
@@ -527,7 +528,10 @@ def _resume_or_init(
     log: Callable[[str], None],
 ) -> tuple[dict[str, Any] | None, tuple[dict[str, Any], dict[str, Any]] | None]:
     """The last.pt payload to resume from (``resume``), else the checkpoint to warm-start from, if any."""
-    payload = load_checkpoint(last_path, map_location="cpu") if resume else None
+    payload = load_checkpoint(last_path, map_location="cpu") if resume and last_path.exists() else None
+    if resume and payload is None:  # started (config.json) but stopped before its first epoch was saved
+        log(f"note: {out} holds no saved epoch (stopped during the first, e.g. by a full disk); starting it "
+            "again from epoch 1")
     init: tuple[dict[str, Any], dict[str, Any]] | None = None
     if init_from is not None:
         if payload is not None:
@@ -560,15 +564,41 @@ def _loss_config(config: TrainConfig, state: _State, log: Callable[[str], None])
 
 def _save_epoch(out: Path, state: _State, data: _Data, config: TrainConfig, task: str, epoch: int,
                 record: dict[str, Any], improved: bool) -> None:
-    """Write last.pt (with the training state to resume) and, when the epoch improved, best.pt."""
-    common = {"model": state.model, "config": config, "task": task, "data": data.desc, "split": data.split,
-              "epoch": epoch + 1, "best": state.best, "metrics": record, "crop_config": data.crop_config}
-    if improved:
-        save_checkpoint(out / "best.pt", **common)
+    """Write last.pt (with the training state to resume) and then, when the epoch improved, best.pt: a
+    stop between the two (a full disk) leaves a last.pt whose best epoch is itself, from which
+    :func:`_repair_best` writes best.pt on resume."""
+    common = _common(state, data, config, task, epoch + 1, record)
     save_checkpoint(out / "last.pt", **common, training={
         "optimizer": state.optimizer.state_dict(), "scheduler": state.scheduler.state_dict(),
         "rng_torch": torch.get_rng_state(), "history": state.history, "bad_epochs": state.bad_epochs,
     })
+    if improved:
+        save_checkpoint(out / "best.pt", **common)
+
+
+def _common(state: _State, data: _Data, config: TrainConfig, task: str, epoch: int, record: dict[str, Any]
+            ) -> dict[str, Any]:
+    """What best.pt and last.pt both hold."""
+    return {"model": state.model, "config": config, "task": task, "data": data.desc, "split": data.split,
+            "epoch": epoch, "best": state.best, "metrics": record, "crop_config": data.crop_config}
+
+
+def _repair_best(out: Path, state: _State, data: _Data, config: TrainConfig, task: str,
+                 payload: dict[str, Any] | None, log: Callable[[str], None]) -> None:
+    """On resume: when last.pt's epoch was the best one and best.pt does not hold it (the run stopped
+    between the two writes), write best.pt from it (the same weights)."""
+    if payload is None or state.best.get("epoch") != payload.get("epoch"):
+        return
+    best_path = out / "best.pt"
+    if best_path.exists():
+        try:
+            if load_checkpoint(best_path, map_location="cpu").get("epoch") == payload["epoch"]:
+                return
+        except Exception:  # noqa: BLE001 - a damaged best.pt is written again below
+            pass
+    save_checkpoint(best_path, **_common(state, data, config, task, int(payload["epoch"]),
+                                         payload.get("metrics") or {}))
+    log(f"note: best.pt written again from last.pt (epoch {payload['epoch']}, the best so far)")
 
 
 def _end_epoch(state: _State, monitor: float, val_stats: dict[str, Any], epoch: int, config: TrainConfig,
