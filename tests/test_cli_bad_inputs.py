@@ -123,6 +123,7 @@ def ws(tmp_path_factory):
     (root / "junkdir").mkdir()
     (root / "junkdir" / "notes.txt").write_text("not a run\n")
     (root / "bad.json").write_text("{not json")
+    (root / "binary.json").write_bytes(bytes(range(256)) * 4)  # e.g. a checkpoint given as --config
     (root / "list.json").write_text("[1, 2]")
     for name in ("garbage.pt", "garbage.npy", "garbage.png", "garbage.npz"):
         (root / name).write_bytes(rng.bytes(3000))
@@ -390,6 +391,8 @@ CASES: dict[str, Case] = {
     "train-out-sys": Case(f"{T} --out /sys/tognet-t", "/sys"),
     "train-config-missing": Case(f"{T} --out @out --config @nope.json", "not found"),
     "train-config-bad": Case(f"{T} --out @out --config @bad.json", "not valid json"),
+    "train-config-binary": Case(f"{T} --out @out --config @binary.json", "binary.json: not a text file"),
+    "collect-config-binary": Case(f"{C} --config @binary.json", "binary.json: not a text file"),
     "train-lr-neg": Case(f"{T} --out @out --config @train_lr.json", "lr must be 0 or more"),
     "train-batch-0": Case(f"{T} --out @out --config @train_batch.json", "batch_size"),
     "train-val-fraction": Case(f"{T} --out @out --config @train_val.json", "val_fraction"),
