@@ -163,6 +163,7 @@ def ws(tmp_path_factory):
     config("base_fields.json", {"pos": [0.0, -0.6, 0.0], "yaw": 1.57})
     config("base_short.json", {"position": [0.0, -0.6], "yaw": 1.57})
     config("base_mm.json", {"position": [0.0, -600.0, 0.0], "yaw": 1.57})
+    config("base_degrees.json", {"position": [-0.2, 0.6, 0.0], "yaw": -90})
     (root / "base_nan.json").write_text('{"position": [0.0, NaN, 0.0], "yaw": 1.57}')
     config("sim_dt.json", {"physics": {"timestep": -0.01}})
     config("sim_dt0.json", {"physics": {"timestep": 0.0}})
@@ -515,6 +516,8 @@ CASES: dict[str, Case] = {
     "plan-base-pose-short": Case(f"{PP} --robot panda --base-pose @base_short.json", "3 numbers"),
     "plan-base-pose-nan": Case(f"{PP} --robot sawyer --base-pose @base_nan.json", "finite"),
     "plan-base-pose-mm": Case(f"{PP} --robot sawyer --base-pose @base_mm.json", "metres"),
+    "plan-base-pose-degrees": Case(f"{PP} --robot sawyer --base-pose @base_degrees.json", "degrees?"),
+    "plan-base-pose-floating": Case(f"{PP} --robot floating --base-pose @base_far.json", "--robot"),
     "plan-robot-out-of-reach": Case(f"{PP} --robot sawyer --base-pose @base_far.json",
                                     "no grasp within the sawyer's reach" if HAVE_ROBOT else "tognet[robot]"),
     "plan-top-neg": Case(f"{PP} --top -1", "--top"),

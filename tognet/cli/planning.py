@@ -125,7 +125,7 @@ def plan_cmd(
 
     choice = parse_object(object_)
     check_task_name(task, what="--task")
-    if base_pose is not None and robot is None:
+    if base_pose is not None and robot in (None, FLOATING):
         raise ValueError(f"--base-pose places the --robot arm: name the arm with --robot {ARMS_METAVAR}")
     _check_outputs(out, overlay, rerun)
     if reference is not None and not all(math.isfinite(v) for v in reference):

@@ -542,6 +542,9 @@ def load_base_pose(path: str | Path) -> tuple[tuple[float, float, float], float]
     values = [float(v) for v in position] + [float(yaw)]
     if not all(math.isfinite(v) for v in values):
         raise BasePoseError(f"{path}: position and yaw must be finite numbers, got {position!r}, {yaw!r}")
+    if abs(values[3]) > 2 * math.pi + 1e-6:
+        raise BasePoseError(f"{path}: yaw {values[3]:g} is more than a turn: radians expected (degrees? "
+                            f"{values[3]:g} degrees is {math.radians(values[3]):.4f} rad)")
     if max(abs(v) for v in values[:3]) > 10:
         raise BasePoseError(f"{path}: the base is {max(abs(v) for v in values[:3]):g} m from the frame's "
                             "origin: metres expected (millimetres?)")
