@@ -5,8 +5,11 @@ small tmpfs the test mounts (as root) and unmounts; skipped with the reason wher
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
+import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -116,3 +119,125 @@ def test_a_collection_stopped_by_a_full_disk_continues_to_the_uninterrupted_reco
     assert len(a.z) == len(b.z) == 60
     for name in FIELDS:
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+
+
+def _fill(disk: Path) -> Path:
+    """Take every free byte of ``disk`` with one file (another program filling the disk); returns it."""
+    filler = disk / "filler"
+    with open(filler, "wb") as fh:
+        free = os.statvfs(disk).f_bavail * os.statvfs(disk).f_frsize
+        os.posix_fallocate(fh.fileno(), 0, free)
+    return filler
+
+
+def _fill_when(cmd: list[str], ready: Callable[[], bool], disk: Path) -> subprocess.CompletedProcess[str]:
+    """Run ``cmd``; once ``ready()``, pause it, fill ``disk`` and let it go on (so the disk is full part
+    way through whatever its size estimate said); its outcome."""
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 300
+        while not ready() and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.002)
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGSTOP)
+            _fill(disk)
+            proc.send_signal(signal.SIGCONT)
+        out, err = proc.communicate(timeout=300)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    return subprocess.CompletedProcess(cmd, proc.returncode, out, err)
+
+
+def _one_error(done: subprocess.CompletedProcess[str], path_under: Path) -> str:
+    assert done.returncode == 2, done.stdout + done.stderr
+    errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1 and "Traceback" not in done.stderr, done.stderr
+    assert "no space left" in errors[0] and str(path_under) in errors[0], errors[0]
+    return errors[0]
+
+
+def _tree(root: Path) -> dict[str, bytes]:
+    return {str(f.relative_to(root)): f.read_bytes() for f in sorted(root.rglob("*")) if f.is_file()}
+
+
+def test_objects_generate_stopped_by_a_full_disk_reruns_to_the_same_files(tmp_path, small_disk):
+    def generate(out: Path) -> list[str]:
+        return [TOGNET, "objects", "generate", "--kind", "primitive", "--count", "60", "--out", str(out)]
+
+    assert subprocess.run(generate(tmp_path / "reference"), capture_output=True).returncode == 0
+    disk = small_disk(64 << 20)
+    out = disk / "set"
+    stopped = _fill_when(generate(out), lambda: len(list(out.glob("primitive-*/object.xml"))) >= 8, disk)
+    _one_error(stopped, out)
+    assert not [f for f in out.rglob("*") if f.is_file() and f.stat().st_size == 0]  # no empty mesh
+    assert not list(out.rglob(".*tmp*"))
+    made = _tree(out)
+    want = _tree(tmp_path / "reference")
+    assert 0 < len(made) < len(want)
+    (disk / "filler").unlink()  # space freed: the same command goes on
+    done = subprocess.run(generate(out), capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert _tree(out) == want
+
+
+@pytest.fixture(scope="module")
+def toy_preset(tmp_path_factory) -> Path:
+    from tognet.collect.config import CollectConfig, PipelineConfig, RoundConfig
+    from tognet.model.config import TrainConfig
+
+    root = tmp_path_factory.mktemp("toy")
+    PipelineConfig(
+        name="toy", objects={"primitive": 3},
+        grasp_round=RoundConfig(episodes=12, policy="nms_uniform", epochs=1),
+        rounds=(RoundConfig(episodes=12, policy="nms_uniform", epochs=1),
+                RoundConfig(episodes=12, policy="epsilon_greedy", epochs=1)),
+        collect=CollectConfig(trials_per_scene=4, scenes_per_job=1),
+        train=TrainConfig(batch_size=8, val_fraction=0.34, patience=2),
+    ).save(root / "toy.json")
+    return root / "toy.json"
+
+
+def _pipeline(preset: Path, out: Path, *more: str) -> list[str]:
+    return [TOGNET, "pipeline", "--task", "sweeping", "--preset", str(preset), "--out", str(out),
+            "--workers", "1", "--no-progress", *more]
+
+
+@pytest.fixture(scope="module")
+def toy_run(toy_preset) -> Path:
+    run = toy_preset.parent / "reference"
+    done = subprocess.run(_pipeline(toy_preset, run), capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    return run
+
+
+def test_a_pipeline_stopped_by_a_full_disk_in_round_1_training_resumes_to_the_same_models(
+        toy_preset, toy_run, small_disk):
+    disk = small_disk(64 << 20)
+    run = disk / "run"
+    model = run / "sweeping" / "round1" / "model"
+    stopped = _fill_when(_pipeline(toy_preset, run), (model / "config.json").is_file, disk)
+    _one_error(stopped, model)
+    assert not (run / "summary.json").exists() and not list(run.rglob(".*tmp*"))
+    (disk / "filler").unlink()
+    resumed = subprocess.run(_pipeline(toy_preset, run, "--resume"), capture_output=True, text=True)
+    assert resumed.returncode == 0, resumed.stderr
+    for name in ("grasping/model/best.pt", "sweeping/round1/model/best.pt", "sweeping/round2/model/best.pt",
+                 "sweeping/round2/model/last.pt"):
+        got, want = _weights(run / name), _weights(toy_run / name)
+        assert all(torch.equal(got[k], want[k]) for k in want), name
+
+
+def test_export_models_stopped_by_a_full_disk_leaves_no_torn_checkpoint(toy_run, tmp_path, small_disk):
+    reference = tmp_path / "reference"
+    assert _tognet("export-models", str(toy_run), "--out", str(reference)).returncode == 0
+    sizes = {f.name: f.stat().st_size for f in reference.iterdir()}
+    disk = small_disk(sizes["grasping.pt"] + (64 << 10) + sizes["sweeping.pt"] // 2)  # grasping.pt fits
+    out = disk / "models"
+    stopped = _tognet("export-models", str(toy_run), "--out", str(out))
+    _one_error(stopped, out)
+    for f in out.iterdir():  # what is there is whole: each file the same as the uninterrupted export's
+        assert not f.name.startswith(".") and f.read_bytes() == (reference / f.name).read_bytes(), f.name
+    small_disk(64 << 20)
+    assert _tognet("export-models", str(toy_run), "--out", str(out)).returncode == 0
+    assert _tree(out) == _tree(reference)

@@ -87,6 +87,15 @@ def atomic_write_text(path: str | Path, text: str, *, fsync: bool = True) -> Pat
     return atomic_write_bytes(path, text.encode("utf-8"), fsync=fsync)
 
 
+def atomic_copy(src: str | Path, dst: str | Path, *, fsync: bool = True) -> Path:
+    """Copy the file ``src`` to ``dst`` whole or not at all (:func:`atomic_writer`): a full disk leaves
+    the old ``dst`` (or none), never a truncated copy beside complete ones. Returns ``dst``."""
+    src = Path(src)
+    with open(src, "rb") as fin, atomic_writer(dst, fsync=fsync, size=src.stat().st_size) as fout:
+        shutil.copyfileobj(fin, fout, 1 << 20)
+    return Path(dst)
+
+
 def sha256_file(path: str | Path) -> str:
     """The sha256 of a file's bytes (hex), read in 1 MiB blocks."""
     digest = hashlib.sha256()

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import shutil
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -26,7 +25,7 @@ from typing import Any
 from tognet.collect.config import PipelineConfig, RoundConfig
 from tognet.collect.rounds import SUMMARY, collect_round
 from tognet.errors import TognetError
-from tognet.io import atomic_write_text
+from tognet.io import atomic_copy, atomic_write_text
 from tognet.jobs.workers import Executor, make_executor
 from tognet.objects.record import ObjectRecord
 from tognet.tasks import GRASP_ONLY
@@ -267,7 +266,7 @@ def export_models(run: str | Path, out: str | Path, command: str | None = None) 
     out.mkdir(parents=True, exist_ok=True)
     for name, (src, info) in entries.items():
         dst = out / f"{name}.pt"
-        shutil.copyfile(src, dst)
+        atomic_copy(src, dst)
         doc = {"name": name, "preset": preset, "command": command, "source_run": str(run),
                "checkpoint_sha256": hashlib.sha256(dst.read_bytes()).hexdigest(), **info}
         atomic_write_text(out / f"{name}.json", json.dumps(doc, indent=2, default=str) + "\n")
