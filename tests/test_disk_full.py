@@ -4,6 +4,7 @@ small tmpfs the test mounts (as root) and unmounts; skipped with the reason wher
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -241,3 +242,62 @@ def test_export_models_stopped_by_a_full_disk_leaves_no_torn_checkpoint(toy_run,
     small_disk(64 << 20)
     assert _tognet("export-models", str(toy_run), "--out", str(out)).returncode == 0
     assert _tree(out) == _tree(reference)
+
+
+def test_data_synthetic_stopped_by_a_full_disk_reruns_to_the_same_records(tmp_path, small_disk):
+    def synthetic(out: Path) -> list[str]:
+        return [TOGNET, "data", "synthetic", str(out), "--episodes", "6000", "--shard-size", "500"]
+
+    assert subprocess.run(synthetic(tmp_path / "reference"), capture_output=True).returncode == 0
+    disk = small_disk(64 << 20)
+    out = disk / "syn"
+    stopped = _fill_when(synthetic(out), lambda: len(list(out.glob("shard-*.npz"))) >= 3, disk)
+    _one_error(stopped, out)
+    assert not list(out.rglob(".*tmp*"))
+    (disk / "filler").unlink()
+    done = subprocess.run(synthetic(out), capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert "kept" in done.stdout  # the shards written before the disk filled are not made twice
+    _same_records(out, tmp_path / "reference")
+
+
+def _same_records(a: Path, b: Path) -> None:
+    import numpy as np
+
+    from tognet.data.episodes import read_dataset
+    from tognet.data.format import FIELDS
+
+    got, want = read_dataset(a, keep_invalid=True), read_dataset(b, keep_invalid=True)
+    assert len(got.z) == len(want.z)
+    for name in FIELDS:
+        np.testing.assert_array_equal(getattr(got, name), getattr(want, name), err_msg=name)
+
+
+def _results(folder: Path) -> dict:
+    def strip(x: object) -> object:
+        if isinstance(x, dict):
+            return {k: strip(v) for k, v in x.items() if k not in ("run", "timing") and "seconds" not in k}
+        return [strip(v) for v in x] if isinstance(x, list) else x
+
+    return strip(json.loads((folder / "results.json").read_text()))
+
+
+def test_an_evaluation_stopped_by_a_full_disk_resumes_to_the_uninterrupted_results(tmp_path, small_disk):
+    def evaluate(out: Path, *more: str) -> list[str]:
+        return [TOGNET, "evaluate", "--task", "hammering", "--category", "pg-primitive", "--episodes", "8",
+                "--methods", "Antipodal+Random,TOG-Net", "--out", str(out), "--workers", "1",
+                "--no-progress", "--no-animations", *more]
+
+    done = subprocess.run(evaluate(tmp_path / "reference"), capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    disk = small_disk(64 << 20)
+    out = disk / "eval"
+    records = out / "hammering" / "pg-primitive"
+    stopped = _fill_when(evaluate(out), lambda: (records / "job-000001.json").is_file(), disk)
+    _one_error(stopped, out)
+    assert not (out / "results.json").exists() and not list(out.rglob(".*tmp*"))
+    (disk / "filler").unlink()
+    resumed = subprocess.run(evaluate(out, "--resume"), capture_output=True, text=True)
+    assert resumed.returncode == 0, resumed.stderr
+    text = json.dumps(_results(out)).replace(str(out), str(tmp_path / "reference"))
+    assert json.loads(text) == _results(tmp_path / "reference")

@@ -79,7 +79,8 @@ def data_info_cmd(
 
 @user_errors
 def data_synth_cmd(
-    out: Path = typer.Argument(..., help="Dataset folder to write (appends if it exists)."),
+    out: Path = typer.Argument(
+        ..., help="Dataset folder to write (appends if it exists; continues a stopped run of this --seed)."),
     task: str = typer.Option("synthetic", help="Task name recorded in the manifest."),
     episodes: int = typer.Option(2000, min=1, help="Number of episodes."),
     objects: int = typer.Option(40, min=1, help="Number of distinct bar objects."),
@@ -90,8 +91,10 @@ def data_synth_cmd(
     """Write synthetic bar episodes with a known labelling rule (for smoke tests of training).
 
     OUT gets shard-NNNNN.npz files (--shard-size episodes each) and manifest.json, as a collection writes
-    them; an existing dataset of the same --task is appended to. The episodes are made and written a few
-    thousand at a time, so memory stays flat however many are asked for."""
+    them; an existing dataset of the same --task is appended to, except the episodes of this --seed and
+    --objects it already holds: a run stopped part way (Ctrl-C, a full disk) continues after them. The
+    episodes are made and written a few thousand at a time, so memory stays flat however many are asked
+    for."""
     from tqdm import tqdm
 
     from tognet.data.synthetic import write_synthetic_dataset
@@ -106,10 +109,12 @@ def data_synth_cmd(
                          f"{-(-episodes // MAX_SHARDS)} or more")
     check_disk("--episodes", episodes, SYNTHETIC_BYTES, out, "episode")
     check_memory("--shard-size", shard_size, BUFFERED_BYTES, "one shard's episodes before it is written")
+    done: list[int] = []
     with tqdm(total=episodes, desc="synthetic", unit="ep", disable=not progress, leave=False) as bar:
         write_synthetic_dataset(out, task=task, n=episodes, shard_size=shard_size, seed=seed,
-                                n_objects=objects, progress=bar.update)
-    typer.echo(f"wrote {episodes} synthetic episodes to {out}")
+                                n_objects=objects, progress=bar.update, resumed=done.append)
+    kept = f" (it held the first {done[0]} of them, from a run of this --seed: kept)" if done[0] else ""
+    typer.echo(f"wrote {episodes - done[0]} synthetic episodes to {out}{kept}")
 
 
 def register(app: typer.Typer) -> None:

@@ -88,19 +88,35 @@ def synthetic_episodes(
     )
 
 
+def _meta(seed: int, kwargs: Mapping[str, Any]) -> dict[str, Any]:
+    """What names one synthetic stream in its shards: the seed and any generator setting not the default."""
+    return {"round": 0, "policy": "synthetic", "seed": seed, **dict(sorted(kwargs.items()))}
+
+
 def write_synthetic_dataset(
     out_dir: str | Path, task: str = "synthetic", n: int = 512, shard_size: int = 256, seed: int = 0,
-    configs: Mapping[str, Any] | None = None, progress: Callable[[int], None] | None = None, **kwargs: Any,
+    configs: Mapping[str, Any] | None = None, progress: Callable[[int], None] | None = None,
+    resumed: Callable[[int], None] | None = None, **kwargs: Any,
 ) -> Path:
-    """Write :func:`synthetic_episodes` as a dataset folder (appending if it exists) and return it,
-    :data:`CHUNK` episodes at a time (``progress(k)`` is called with each chunk's count). ``configs`` are
-    saved beside the data (see :class:`ShardWriter`)."""
-    with ShardWriter(out_dir, task, {"round": 0, "policy": "synthetic", "seed": seed}, shard_size,
-                     configs=configs) as writer:
+    """Write the first ``n`` :func:`synthetic_episodes` of the stream (``seed``, ``kwargs``) as a dataset
+    folder and return it, :data:`CHUNK` episodes at a time (``progress(k)`` is called with each chunk's
+    count). A folder that already lists some of this stream's episodes (a run stopped part way, by an
+    interrupt or a full disk) is continued after them, never given them twice; another stream is appended.
+    ``resumed(k)`` is called with how many of the ``n`` were there already; ``configs`` are saved beside
+    the data (see :class:`ShardWriter`)."""
+    with ShardWriter(out_dir, task, _meta(seed, kwargs), shard_size, configs=configs) as writer:
+        done = min(writer.listed(writer.meta), n)
+        for report in (resumed, progress if done else None):
+            if report is not None:
+                report(done)
         for chunk, start in enumerate(range(0, n, CHUNK)):
             k = min(CHUNK, n - start)
+            if start + k <= done:
+                continue
             episodes = synthetic_episodes(k, seed=seed, chunk=chunk, start=start, **kwargs)
-            writer.add_batch(**{name: getattr(episodes, name) for name in episodes.__dataclass_fields__})
+            skip = max(done - start, 0)
+            writer.add_batch(**{name: getattr(episodes, name)[skip:]
+                                for name in episodes.__dataclass_fields__})
             if progress is not None:
-                progress(k)
+                progress(k - skip)
     return Path(out_dir)

@@ -24,7 +24,7 @@ from tognet.data.format import (
     summarise,
 )
 from tognet.data.manifest import new_manifest, read_manifest, save_config, write_manifest
-from tognet.io import atomic_writer, sha256_file
+from tognet.io import atomic_writer, sha256_file, write_npz
 
 
 def write_shard(path: Path, columns: Mapping[str, np.ndarray], meta: Mapping[str, Any]) -> dict[str, Any]:
@@ -34,8 +34,13 @@ def write_shard(path: Path, columns: Mapping[str, np.ndarray], meta: Mapping[str
     if path.exists():
         raise DatasetError(f"{path}: already exists, refusing to overwrite")
     with atomic_writer(path) as fh:
-        np.savez_compressed(fh, meta_json=np.array(json.dumps(dict(meta))),
-                            format_version=np.array(FORMAT_VERSION), **columns)
+        write_npz(fh, {"meta_json": np.array(json.dumps(dict(meta))),
+                       "format_version": np.array(FORMAT_VERSION), **columns})
+    return shard_entry(path, columns, meta)
+
+
+def shard_entry(path: Path, columns: Mapping[str, np.ndarray], meta: Mapping[str, Any]) -> dict[str, Any]:
+    """The manifest entry of the shard file ``path`` holding ``columns`` and ``meta``."""
     count = int(np.asarray(columns["z"]).shape[0])
     return {
         "file": path.name,
@@ -107,11 +112,31 @@ class ShardWriter:
         self._manifest = manifest
         on_disk = [int(m.group(1)) for p in self.out_dir.iterdir() if (m := SHARD_PATTERN.match(p.name))]
         listed = [int(SHARD_PATTERN.match(s["file"]).group(1)) for s in manifest["shards"]]  # type: ignore[union-attr]
+        self._adopt(sorted(set(on_disk) - set(listed)))
         self._next_index = max([-1, *on_disk, *listed]) + 1
         self._buffer: dict[str, list[np.ndarray]] = {name: [] for name in FIELDS}
         self._buffered = 0
         self._closed = False
         self.written: list[Path] = []
+
+    def listed(self, meta: Mapping[str, Any]) -> int:
+        """How many episodes the folder's manifest lists in shards of exactly this ``meta``."""
+        return sum(int(s["count"]) for s in self._manifest["shards"] if s.get("meta") == dict(meta))
+
+    def _adopt(self, orphans: list[int]) -> None:
+        """List the whole shards a writer stopped between renaming a shard into place and rewriting the
+        manifest (a full disk, a kill) left unlisted, so what was written is kept; an unreadable one stays
+        unlisted (readers ignore it) and its index is not reused."""
+        from tognet.data.episodes import read_columns
+
+        for index in orphans:
+            path = self.out_dir / f"shard-{index:05d}.npz"
+            try:
+                columns, meta = read_columns(path, tuple(FIELDS))
+            except DatasetError:
+                continue
+            if meta.get("task") == self.task:
+                self._manifest["shards"].append(shard_entry(path, columns, meta))
 
     # -- adding episodes --------------------------------------------------------------------------------
     def add(self, **episode: Any) -> None:
