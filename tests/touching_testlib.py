@@ -133,7 +133,10 @@ def aim(scene: Settled, intrinsics: CameraIntrinsics = KINECT2, distance: float 
     return Camera.aimed_at(intrinsics, [c[0], c[1], 0.0], distance, math.radians(tilt_deg), azimuth, 0.0)
 
 
-def render(meshes: list[tuple[NDArray[np.float64], NDArray[np.int64]]], camera: Camera) -> NDArray[np.float32]:
+Mesh = tuple[NDArray[np.float64], NDArray[np.int64]]
+
+
+def render(meshes: list[Mesh], camera: Camera) -> NDArray[np.float32]:
     """The clean depth image (m, float32) of ``meshes`` on an unbounded table plane z = 0."""
     k = camera.intrinsics
     r, o = camera.pose[:3, :3], camera.position
