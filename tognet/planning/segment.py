@@ -113,14 +113,14 @@ class SegmentConfig(Config):
         "thin handle meets a big head, the narrowest bit is the handle itself).", gt=0, le=1,
     )
     handle_solidity: float = doc(
-        0.8,
+        0.7,
         "A part of a region that fills at least this share of its convex hull, is ``handle_elongation`` "
         "times longer than wide and whose long axis runs (within ``handle_offset``) through where it meets "
         "the rest is a handle running into its tool's head (a hammer's, a trowel's grip, a roller's): such "
         "a region is one tool, never split nor reported.", gt=0, le=1,
     )
     handle_elongation: float = doc(
-        3.0, "A handle is at least this many times longer than wide (see ``handle_solidity``).", ge=1,
+        1.5, "A handle is at least this many times longer than wide (see ``handle_solidity``).", ge=1,
     )
     handle_offset: float = doc(
         0.35,
@@ -349,32 +349,52 @@ class Verdict:
 def judge(mask: NDArray[np.bool_], height: NDArray[np.float32], pixel: float, cfg: SegmentConfig) -> Verdict:
     """Whether the region ``mask`` (a box around it, ``height``: m above the table, NaN holes; ``pixel``:
     its pixels' size on the table, m) is two objects touching: split where its heights fall into a valley
-    between two tops (``valley_depth``, ``valley_ratio``), warned where its footprint pinches between two
-    parts (``neck_ratio``); never for a container (a rim around a floor) nor a neck both parts point at
-    (one tool's stalk, ``stalk_ratio``). See :mod:`tognet.planning.touching`."""
+    between two tops (``valley_depth``, ``valley_ratio``), reported where its footprint pinches between two
+    parts (``neck_ratio``); never for a container (a rim around a floor) nor where one part is a handle
+    running into the other (``handle_*``). See :mod:`tognet.planning.touching`."""
     region, h = touching.smoothed_heights(mask, height)
-    area = pixel * pixel
+    verdict = _valley_split(region, h, pixel, cfg)
+    if verdict is None:
+        verdict = _pinch_note(region, h, pixel, cfg)
+    if verdict is None:
+        return Verdict()
     top = float(np.percentile(h[region], 99))
-    if touching.enclosed_floor(region, h, cfg.min_height, top, area) >= cfg.part_area:
+    if touching.enclosed_floor(region, h, cfg.min_height, top, pixel * pixel) >= cfg.part_area:
         return Verdict()  # a container: its rim around its floor
+    return verdict
+
+
+def _valley_split(region: NDArray[np.bool_], h: NDArray[np.float64], pixel: float, cfg: SegmentConfig
+                  ) -> Verdict | None:
+    """The split at a valley between two tops, None without one deep enough (or where it cuts a handle)."""
+    area = pixel * pixel
     valley = touching.find_valley(region, h, area, cfg.part_area, cfg.min_height)
-    if (valley is not None and valley.depth >= cfg.valley_depth
-            and valley.saddle <= cfg.valley_ratio * valley.peaks[1]):
-        labels = touching.split_labels(region, h, valley.seeds)
-        sizes = [float(np.count_nonzero(labels == i)) * area for i in (1, 2)]
-        if min(sizes) >= cfg.part_area and not _handle(labels, touching.cut_point(labels), cfg):
-            tops = f"{1000 * valley.peaks[0]:.0f} and {1000 * valley.peaks[1]:.0f} mm high"
-            return Verdict(labels, f"the lowest way between their tops ({tops}) goes down to "
-                           f"{1000 * valley.saddle:.0f} mm")
+    if (valley is None or valley.depth < cfg.valley_depth
+            or valley.saddle > cfg.valley_ratio * valley.peaks[1]):
+        return None
+    labels = touching.split_labels(region, h, valley.seeds)
+    sizes = [float(np.count_nonzero(labels == i)) * area for i in (1, 2)]
+    if min(sizes) < cfg.part_area or _handle(labels, touching.cut_point(labels), cfg):
+        return None
+    tops = f"{1000 * valley.peaks[0]:.0f} and {1000 * valley.peaks[1]:.0f} mm high"
+    return Verdict(labels, f"the lowest way between their tops ({tops}) goes down to "
+                   f"{1000 * valley.saddle:.0f} mm")
+
+
+def _pinch_note(region: NDArray[np.bool_], h: NDArray[np.float64], pixel: float, cfg: SegmentConfig
+                ) -> Verdict | None:
+    """The warning where the footprint pinches between two parts, None without a narrow enough pinch (or
+    where a handle runs into the pinch)."""
+    area = pixel * pixel
     seeds = touching.neck_seeds(region, area, cfg.part_area)
     if seeds is None:
-        return Verdict()
+        return None
     pinch = touching.find_pinch(region, seeds, pixel)
     if pinch is None or pinch.width > cfg.neck_ratio * min(pinch.part_widths):
-        return Verdict()
+        return None
     labels = touching.split_labels(region, h, seeds)
     if _handle(labels, pinch.at, cfg):
-        return Verdict()
+        return None
     sizes = sorted((float(np.count_nonzero(labels == i)) * area for i in (1, 2)), reverse=True)
     return Verdict(None, f"may be two objects touching: its footprint narrows to {1000 * pinch.width:.0f} mm "
                    f"between two parts of {1e4 * sizes[0]:.0f} and {1e4 * sizes[1]:.0f} cm^2")

@@ -2,12 +2,15 @@
 against each other rather than one tool, and the split of such a region in two.
 
 One tool's parts are rigidly joined: climbing from its lower part to its higher one never goes down much,
-and where a thin handle meets a big head the narrow bit is the handle itself, a stalk as long as it is.
-Two tools lying side by side meet where their sides curve down to the table: between their tops lies a
-*valley* well below both (the evidence used to split), and two tools touching at a corner meet at a
-*pinch*, a neck narrower than both that is not a stalk (ambiguous alone: a warning). Two hollows do not
-count: a container's rim rising on both sides of its floor (a pot, a mug) encloses the floor, and a thin
-stalk between a blade and a grip (a trowel) runs on for longer than it is wide.
+and where a thin handle meets a big head the narrowest bit is the handle itself. Two tools lying side by
+side meet where their sides curve down to the table, so between their tops lies a *valley* well below both
+(:func:`find_valley`: the evidence used to split, grown into two parts by :func:`split_labels`), and two
+tools touching at a corner meet at a *pinch*, a neck narrower than both parts (:func:`find_pinch`:
+ambiguous alone, so reported, not split). Two exceptions look the same and are one object: a container,
+whose rim rises on both sides of its floor and encloses it (:func:`enclosed_floor`), and a handle that runs
+into its head through a low or narrow joint (a trowel's grip, a roller's frame, a bar tilted down into a
+block): a convex, elongated part whose long axis runs through the joint (:func:`solidity`,
+:func:`elongation`, :func:`axis_offset`). The thresholds are :class:`tognet.planning.segment.SegmentConfig`'s.
 """
 
 from __future__ import annotations
@@ -17,8 +20,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import ConvexHull, QhullError
 
 _EIGHT = np.ones((3, 3), dtype=bool)
@@ -44,13 +45,11 @@ class Valley:
 @dataclass(frozen=True)
 class Pinch:
     """The narrowest place between two parts of the footprint: its width (m), the widths of the two parts
-    (m, the widest inscribed disc's diameter), the length (m) of the thin bit there (see
-    :func:`find_pinch`) and where it is (``at``: row, column of its middle)."""
+    (m, the widest inscribed disc's diameter) and where it is (``at``: row, column of its middle)."""
 
     width: float
     part_widths: tuple[float, float]
-    length: float
-    at: tuple[int, int] = (0, 0)
+    at: tuple[int, int]
 
 
 def smoothed_heights(mask: NDArray[np.bool_], height: NDArray[np.float32]) -> tuple[NDArray[np.bool_],
@@ -97,12 +96,10 @@ def encloses(region: NDArray[np.bool_], h: NDArray[np.float64], level: float, pi
     return float((ndimage.binary_fill_holes(above) & ~above).sum() * pixel_area)
 
 
-def find_pinch(region: NDArray[np.bool_], seeds: NDArray[np.int32], pixel: float,
-               stalk_width: float = 1.5) -> Pinch | None:
-    """The narrowest place between the two seeds' parts of the footprint (``pixel``: m per pixel), None
-    when one part thins out before they come apart (the narrow bit is a part itself: a handle). Its
-    ``length`` is how far apart the two parts are where the footprint is ``stalk_width`` times the neck's
-    width: about nothing at a pinch (the two sides widen at once), a stalk's length."""
+def find_pinch(region: NDArray[np.bool_], seeds: NDArray[np.int32], pixel: float) -> Pinch | None:
+    """The narrowest place between the two seeds' parts of the footprint (``pixel``: m per pixel): the
+    footprint eroded ever deeper until the parts come apart; None when one part thins out first (the narrow
+    bit is a part itself: a handle)."""
     half = ndimage.distance_transform_edt(region)
     a, b = seeds == 1, seeds == 2
     widths = (2.0 * float(half[a].max()) * pixel, 2.0 * float(half[b].max()) * pixel)
@@ -111,10 +108,7 @@ def find_pinch(region: NDArray[np.bool_], seeds: NDArray[np.int32], pixel: float
         if not la.any() or not lb.any():
             return None
         if not (la & lb).any():
-            wide = half > max(r * stalk_width, r + 1.0)
-            ga, gb = _cores_of(wide, a, b)
-            gap = float(ndimage.distance_transform_edt(~ga)[gb].min()) if ga.any() and gb.any() else np.inf
-            return Pinch(2.0 * r * pixel, widths, gap * pixel, neck_point(half > r - 0.5, la, lb))
+            return Pinch(2.0 * r * pixel, widths, neck_point(half > r - 0.5, la, lb))
     return None
 
 
@@ -163,34 +157,6 @@ def neck_seeds(region: NDArray[np.bool_], pixel_area: float, part_area: float) -
     return None
 
 
-@dataclass(frozen=True)
-class Cut:
-    """Where the two parts of a split meet: its length (m), the median height along it (m), and per part
-    the share of its climb from the cut to its top (95th percentile) made within ``distance`` of the cut
-    (1: a side rising at once, as two tools' sides do where they touch; small: a flat stalk or blade
-    running on from the cut, as within one tool)."""
-
-    length: float
-    height: float
-    rise: tuple[float, float]
-
-
-def measure_cut(region: NDArray[np.bool_], h: NDArray[np.float64], labels: NDArray[np.int32], pixel: float,
-                distance: float) -> Cut:
-    """The cut between labels 1 and 2 of a split region (``pixel``: m per pixel)."""
-    one, two = labels == 1, labels == 2
-    cut = (one & ndimage.binary_dilation(two, _EIGHT)) | (two & ndimage.binary_dilation(one, _EIGHT))
-    level = float(np.median(h[cut])) if cut.any() else 0.0
-    near = ndimage.distance_transform_edt(~cut) * pixel <= distance
-    rise = []
-    for part in (one, two):
-        top = float(np.percentile(h[part], 95))
-        band = part & near
-        climbed = float(np.percentile(h[band], 90)) if band.any() else level
-        rise.append((climbed - level) / (top - level) if top - level > 1e-3 else 0.0)
-    return Cut(float(cut.sum()) * pixel / 2.0, level, (rise[0], rise[1]))
-
-
 def neck_point(region: NDArray[np.bool_], a: NDArray[np.bool_], b: NDArray[np.bool_]) -> tuple[int, int]:
     """(row, column) of the middle of the shortest way across the region from ``a`` to ``b``."""
     da, db = ndimage.distance_transform_edt(~a), ndimage.distance_transform_edt(~b)
@@ -223,46 +189,6 @@ def enclosed_floor(region: NDArray[np.bool_], h: NDArray[np.float64], start: flo
     for level in np.arange(start, stop, step):
         best = max(best, encloses(region, h, float(level), pixel_area))
     return best
-
-
-def flat_bottom(region: NDArray[np.bool_], h: NDArray[np.float64], valley: Valley, pixel: float,
-                band: float = 0.002) -> float:
-    """How long (m) the lowest way between the valley's two tops stays within ``band`` of its saddle: a
-    few millimetres where two tools' sides meet in a V, a stalk's or a flat blade's length within one
-    tool. The way is the shortest one over the pixels above the saddle (just below it, where the two
-    parts are one)."""
-    over = region & (h > valley.saddle - 0.001)
-    d1, d2 = _distances(over, valley.seeds == 1), _distances(over, valley.seeds == 2)
-    total = d1 + d2
-    if not np.isfinite(total).any():
-        return 0.0
-    way = over & (total <= np.min(total) + 2.0)
-    low = way & (h <= valley.saddle + band)
-    if not low.any():
-        return 0.0
-    return float(d1[low].max() - d1[low].min()) * pixel
-
-
-def _distances(inside: NDArray[np.bool_], sources: NDArray[np.bool_]) -> NDArray[np.float64]:
-    """Per pixel, the length (pixels) of the shortest 8-connected way to ``sources`` within ``inside``;
-    inf where there is none."""
-    index = np.full(inside.shape, -1, dtype=np.int64)
-    index[inside] = np.arange(np.count_nonzero(inside))
-    rows, cols, weights = [], [], []
-    height, width = index.shape
-    for dr, dc, w in ((0, 1, 1.0), (1, 0, 1.0), (1, 1, np.sqrt(2.0)), (1, -1, np.sqrt(2.0))):
-        c0, c1 = max(0, -dc), width - max(0, dc)
-        a = index[:height - dr, c0:c1]
-        b = index[dr:, c0 + dc:c1 + dc]
-        both = (a >= 0) & (b >= 0)
-        rows.append(a[both]), cols.append(b[both]), weights.append(np.full(int(both.sum()), w))
-    n = int(np.count_nonzero(inside))
-    graph = coo_matrix((np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
-    starts = index[sources & inside]
-    out = np.full(inside.shape, np.inf)
-    if starts.size and n:
-        out[inside] = dijkstra(graph.tocsr(), directed=False, indices=starts, min_only=True)
-    return out
 
 
 def cut_point(labels: NDArray[np.int32]) -> tuple[int, int] | None:
