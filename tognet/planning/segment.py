@@ -374,7 +374,9 @@ def _valley_split(region: NDArray[np.bool_], h: NDArray[np.float64], pixel: floa
         return None
     labels = touching.split_labels(region, h, valley.seeds)
     sizes = [float(np.count_nonzero(labels == i)) * area for i in (1, 2)]
-    if min(sizes) < cfg.part_area or _handle(labels, touching.cut_point(labels), cfg):
+    neck = touching.neck_point(region, valley.seeds == 1, valley.seeds == 2)
+    if (min(sizes) < cfg.part_area or _handle(valley.seeds, neck, cfg)
+            or _handle(labels, touching.cut_point(labels), cfg)):
         return None
     tops = f"{1000 * valley.peaks[0]:.0f} and {1000 * valley.peaks[1]:.0f} mm high"
     return Verdict(labels, f"the lowest way between their tops ({tops}) goes down to "
@@ -393,7 +395,7 @@ def _pinch_note(region: NDArray[np.bool_], h: NDArray[np.float64], pixel: float,
     if pinch is None or pinch.width > cfg.neck_ratio * min(pinch.part_widths):
         return None
     labels = touching.split_labels(region, h, seeds)
-    if _handle(labels, pinch.at, cfg):
+    if _handle(seeds, pinch.at, cfg) or _handle(labels, pinch.at, cfg):
         return None
     sizes = sorted((float(np.count_nonzero(labels == i)) * area for i in (1, 2)), reverse=True)
     return Verdict(None, f"may be two objects touching: its footprint narrows to {1000 * pinch.width:.0f} mm "
@@ -401,8 +403,10 @@ def _pinch_note(region: NDArray[np.bool_], h: NDArray[np.float64], pixel: float,
 
 
 def _handle(labels: NDArray[np.int32], at: tuple[int, int] | None, cfg: SegmentConfig) -> bool:
-    """Whether one of the two parts is a handle ending where they meet (``at``): a convex, elongated piece
-    whose long axis runs through there, as a hammer's handle runs into its head: one tool, not two."""
+    """Whether one of the two parts (labels 1, 2: the tops a valley or an erosion left apart, or the halves
+    grown from them; both are asked, the halves' edges being the less sure) is a handle ending where they
+    meet (``at``): a convex, elongated piece whose long axis runs through there, as a hammer's handle runs
+    into its head: one tool, not two."""
     if at is None:
         return True
     for i in (1, 2):
