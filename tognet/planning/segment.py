@@ -14,6 +14,7 @@ from scipy import ndimage
 from tognet.config import Config, doc
 from tognet.errors import TognetError
 from tognet.geometry import CameraIntrinsics
+from tognet.planning import touching
 from tognet.planning.table import TablePlane
 
 
@@ -83,6 +84,50 @@ class SegmentConfig(Config):
     mask_margin: int = doc(
         2, "Pixels around an object not planned on that are replaced by the table too (its edge, its shadow)."
     )
+    touching: bool = doc(
+        True,
+        "Look in every region that looks like something to pick up for two objects touching "
+        "(:mod:`tognet.planning.touching`): split it in two where its heights show a valley between two "
+        "tops, warn where its footprint pinches between two parts. False: every region is one object.",
+    )
+    part_area: float = doc(
+        20e-4,
+        "Each of two objects touching covers at least this (m^2, 20 cm^2, seen from above); smaller parts "
+        "are a tool's own bumps.", gt=0,
+    )
+    valley_depth: float = doc(
+        0.010,
+        "A region is split in two when the lowest way between two parts' tops goes at least this far (m) "
+        "below the lower top (and down to ``valley_ratio`` of its height).", ge=0,
+    )
+    valley_ratio: float = doc(
+        0.6,
+        "A region is split in two when the lowest way between two parts' tops goes down to this fraction "
+        "of the lower top's height above the table (and ``valley_depth`` below it): two tools' sides curve "
+        "down to where they touch, one tool's parts are joined high.", gt=0, le=1,
+    )
+    neck_ratio: float = doc(
+        0.4,
+        "A region whose footprint narrows between two parts to at most this fraction of both parts' "
+        "widths (the widest disc each holds) is reported as maybe two objects touching, not split (where a "
+        "thin handle meets a big head, the narrowest bit is the handle itself).", gt=0, le=1,
+    )
+    handle_solidity: float = doc(
+        0.7,
+        "A part of a region that fills at least this share of its convex hull, is ``handle_elongation`` "
+        "times longer than wide and whose long axis runs (within ``handle_offset``) through where it meets "
+        "the rest is a handle running into its tool's head (a hammer's, a trowel's grip, a roller's): such "
+        "a region is one tool, never split nor reported.", gt=0, le=1,
+    )
+    handle_elongation: float = doc(
+        1.5, "A handle is at least this many times longer than wide (see ``handle_solidity``).", ge=1,
+    )
+    handle_offset: float = doc(
+        0.35,
+        "A handle's long axis passes at most this share of its width from where it meets the rest of its "
+        "tool (0: through the middle of the joint; 0.5: past its side, as where one tool's side touches "
+        "another's end).", ge=0,
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,7 +137,9 @@ class TableObject:
     pixel (u, v), the share of its region measured, its pixel box (u0, v0, u1, v1; exclusive ends), whether
     it touches the image border, ``rejected``: why it does not look like something to pick up (None: it
     does), ``index``: its place in :func:`segment_objects`' list, ``centre_distance``: pixels from the
-    image's centre to its nearest pixel and ``central``: whether that is within ``centre_zone``."""
+    image's centre to its nearest pixel and ``central``: whether that is within ``centre_zone``;
+    ``touching``: why it may be two objects touching (None: no sign of it), and ``split``: whether it is
+    one of two objects split from one region (``touching`` then says why and names the other)."""
 
     mask: NDArray[np.bool_]
     area: float
@@ -106,6 +153,8 @@ class TableObject:
     index: int = 0
     centre_distance: float = 0.0
     central: bool = True
+    touching: str | None = None
+    split: bool = False
 
     @property
     def qualifies(self) -> bool:
@@ -126,7 +175,7 @@ class TableObject:
                 "pixels": int(self.mask.sum()), "measured_share": round(self.measured, 3),
                 "touches_image_border": self.touches_border,
                 "centre_distance_px": round(self.centre_distance, 1), "qualifies": self.qualifies,
-                "rejected_because": self.rejected}
+                "rejected_because": self.rejected, "touching": self.touching, "split": self.split}
 
 
 def _rejection(cfg: SegmentConfig, area: float, top: float, measured: float, thickness: float, rise: float,
@@ -226,9 +275,147 @@ def segment_objects(height: NDArray[np.float32], depth: NDArray[np.float32], int
                           table_from_camera, cfg, float(areas[lab_id]),
                           float(seen[lab_id] / (seen[lab_id] + unseen[lab_id])))
            for lab_id in keep for sl in (slices[lab_id - 1],)]
+    if cfg.touching:
+        out = [part for o in out for part in _touching(o, depth, height, k, table_from_camera, cfg)]
     out.sort(key=lambda o: (o.rejected is not None, o.rejected is None and not o.central,
                             o.centre_distance if o.rejected is None and not o.central else 0.0, -o.area))
-    return [replace(o, index=i) for i, o in enumerate(out)]
+    out = [replace(o, index=i) for i, o in enumerate(out)]
+    return _name_halves(out)
+
+
+def _touching(obj: TableObject, depth: NDArray[np.float32], height: NDArray[np.float32], k: CameraIntrinsics,
+              table_from_camera: NDArray[np.float64], cfg: SegmentConfig) -> list[TableObject]:
+    """The object, or the two objects touching it is split into, or the object with a note that it may be
+    two (:func:`tognet.planning.touching.judge`): only for regions that look like something to pick up."""
+    if not obj.qualifies or obj.area < 2 * cfg.part_area:
+        return [obj]
+    left, top, right, bottom = obj.box
+    pad = 3
+    r0, c0 = max(top - pad, 0), max(left - pad, 0)
+    box = (slice(r0, min(bottom + pad, k.height)), slice(c0, min(right + pad, k.width)))
+    verdict = judge(obj.mask[box], height[box], float(np.sqrt(obj.area / obj.mask.sum())), cfg)
+    if verdict.labels is None:
+        return [obj] if verdict.note is None else [replace(obj, touching=verdict.note)]
+    halves = []
+    for i in (1, 2):
+        mask = np.zeros_like(obj.mask)
+        mask[box] = (verdict.labels == i) & obj.mask[box]
+        rows, cols = np.nonzero(mask)
+        sl = (slice(int(rows.min()), int(rows.max()) + 1), slice(int(cols.min()), int(cols.max()) + 1))
+        half = _region_object(mask[sl], mask[sl], sl, (0, 0), mask.shape, depth, height, k, table_from_camera,
+                              cfg, _footprint(rows, cols, depth, k, table_from_camera), obj.measured)
+        halves.append(replace(half, touching=verdict.note, split=True))
+    return halves
+
+
+def _footprint(rows: NDArray[np.int64], cols: NDArray[np.int64], depth: NDArray[np.float32],
+               k: CameraIntrinsics, table_from_camera: NDArray[np.float64]) -> float:
+    """The area (m^2) the pixels (rows, cols) cover on the table, seen from above."""
+    n = table_from_camera[2, :3]
+    z = depth[rows, cols].astype(np.float64)
+    xn, yn = (cols - k.cx) / k.fx, (rows - k.cy) / k.fy
+    cos_inc = np.maximum(np.abs(n[0] * xn + n[1] * yn + n[2]), 0.05)
+    return float(np.sum(z * z / (k.fx * k.fy) / cos_inc))
+
+
+def _name_halves(objects: list[TableObject]) -> list[TableObject]:
+    """The two objects split from one region each name the other (their ``touching`` notes are the
+    region's, word for word)."""
+    out = list(objects)
+    waiting: dict[str, int] = {}
+    for i, o in enumerate(objects):
+        if not o.split or o.touching is None:
+            continue
+        j = waiting.pop(o.touching, None)
+        if j is None:
+            waiting[o.touching] = i
+            continue
+        out[i] = replace(o, touching=f"is one of two objects touching, split from one region with #{j}: "
+                         + o.touching)
+        out[j] = replace(objects[j], touching=f"is one of two objects touching, split from one region with "
+                         f"#{i}: {o.touching}")
+    return out
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """Whether a region is two objects touching: ``labels`` (1, 2 per pixel of its box; 0 elsewhere) when it
+    is split, ``note``: why (or, without labels, why it may be two: a warning), None when one object."""
+
+    labels: NDArray[np.int32] | None = None
+    note: str | None = None
+
+
+def judge(mask: NDArray[np.bool_], height: NDArray[np.float32], pixel: float, cfg: SegmentConfig) -> Verdict:
+    """Whether the region ``mask`` (a box around it, ``height``: m above the table, NaN holes; ``pixel``:
+    its pixels' size on the table, m) is two objects touching: split where its heights fall into a valley
+    between two tops (``valley_depth``, ``valley_ratio``), reported where its footprint pinches between two
+    parts (``neck_ratio``); never for a container (a rim around a floor) nor where one part is a handle
+    running into the other (``handle_*``). See :mod:`tognet.planning.touching`."""
+    region, h = touching.smoothed_heights(mask, height)
+    verdict = _valley_split(region, h, pixel, cfg)
+    if verdict is None:
+        verdict = _pinch_note(region, h, pixel, cfg)
+    if verdict is None:
+        return Verdict()
+    top = float(np.percentile(h[region], 99))
+    if touching.enclosed_floor(region, h, cfg.min_height, top, pixel * pixel) >= cfg.part_area:
+        return Verdict()  # a container: its rim around its floor
+    return verdict
+
+
+def _valley_split(region: NDArray[np.bool_], h: NDArray[np.float64], pixel: float, cfg: SegmentConfig
+                  ) -> Verdict | None:
+    """The split at a valley between two tops, None without one deep enough (or where it cuts a handle)."""
+    area = pixel * pixel
+    valley = touching.find_valley(region, h, area, cfg.part_area, cfg.min_height)
+    if (valley is None or valley.depth < cfg.valley_depth
+            or valley.saddle > cfg.valley_ratio * valley.peaks[1]):
+        return None
+    labels = touching.split_labels(region, h, valley.seeds)
+    sizes = [float(np.count_nonzero(labels == i)) * area for i in (1, 2)]
+    neck = touching.neck_point(region, valley.seeds == 1, valley.seeds == 2)
+    if (min(sizes) < cfg.part_area or _handle(valley.seeds, neck, cfg)
+            or _handle(labels, touching.cut_point(labels), cfg)):
+        return None
+    tops = f"{1000 * valley.peaks[0]:.0f} and {1000 * valley.peaks[1]:.0f} mm high"
+    return Verdict(labels, f"the lowest way between their tops ({tops}) goes down to "
+                   f"{1000 * valley.saddle:.0f} mm")
+
+
+def _pinch_note(region: NDArray[np.bool_], h: NDArray[np.float64], pixel: float, cfg: SegmentConfig
+                ) -> Verdict | None:
+    """The warning where the footprint pinches between two parts, None without a narrow enough pinch (or
+    where a handle runs into the pinch)."""
+    area = pixel * pixel
+    seeds = touching.neck_seeds(region, area, cfg.part_area)
+    if seeds is None:
+        return None
+    pinch = touching.find_pinch(region, seeds, pixel)
+    if pinch is None or pinch.width > cfg.neck_ratio * min(pinch.part_widths):
+        return None
+    labels = touching.split_labels(region, h, seeds)
+    if _handle(seeds, pinch.at, cfg) or _handle(labels, pinch.at, cfg):
+        return None
+    sizes = sorted((float(np.count_nonzero(labels == i)) * area for i in (1, 2)), reverse=True)
+    return Verdict(None, f"may be two objects touching: its footprint narrows to {1000 * pinch.width:.0f} mm "
+                   f"between two parts of {1e4 * sizes[0]:.0f} and {1e4 * sizes[1]:.0f} cm^2")
+
+
+def _handle(labels: NDArray[np.int32], at: tuple[int, int] | None, cfg: SegmentConfig) -> bool:
+    """Whether one of the two parts (labels 1, 2: the tops a valley or an erosion left apart, or the halves
+    grown from them; both are asked, the halves' edges being the less sure) is a handle ending where they
+    meet (``at``): a convex, elongated piece whose long axis runs through there, as a hammer's handle runs
+    into its head: one tool, not two."""
+    if at is None:
+        return True
+    for i in (1, 2):
+        part = labels == i
+        if (touching.solidity(part) >= cfg.handle_solidity
+                and touching.elongation(part) >= cfg.handle_elongation
+                and touching.axis_offset(part, at) <= cfg.handle_offset):
+            return True
+    return False
 
 
 def _region_object(in_label: NDArray[np.bool_], up: NDArray[np.bool_], sl: tuple[slice, slice],

@@ -558,6 +558,9 @@ def _object_warnings(found: list[TableObject], target: TableObject) -> list[str]
     if target.rejected is not None:
         warnings.append(f"object #{target.index} does not look like something to pick up "
                         f"({target.rejected}); planning on it as asked")
+    if target.touching is not None:
+        pick = "" if target.split else "; pick one with --object U,V (object= in tognet.plan)"
+        warnings.append(f"object #{target.index} {target.touching}{pick}")
     rejected = [o for o in found if not o.qualifies and o is not target]
     if rejected:
         warnings.append("not objects to pick up: " + "; ".join(o.summary() for o in rejected[:3])
