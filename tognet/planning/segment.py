@@ -14,8 +14,20 @@ from scipy import ndimage
 from tognet.config import Config, doc
 from tognet.errors import TognetError
 from tognet.geometry import CameraIntrinsics
-from tognet.planning import touching
 from tognet.planning.table import TablePlane
+from tognet.planning.touching import (
+    axis_offset,
+    cut_point,
+    elongation,
+    enclosed_floor,
+    find_pinch,
+    find_valley,
+    neck_point,
+    neck_seeds,
+    smoothed_heights,
+    solidity,
+    split_labels,
+)
 
 
 class NoObjectError(TognetError):
@@ -352,14 +364,14 @@ def judge(mask: NDArray[np.bool_], height: NDArray[np.float32], pixel: float, cf
     between two tops (``valley_depth``, ``valley_ratio``), reported where its footprint pinches between two
     parts (``neck_ratio``); never for a container (a rim around a floor) nor where one part is a handle
     running into the other (``handle_*``). See :mod:`tognet.planning.touching`."""
-    region, h = touching.smoothed_heights(mask, height)
+    region, h = smoothed_heights(mask, height)
     verdict = _valley_split(region, h, pixel, cfg)
     if verdict is None:
         verdict = _pinch_note(region, h, pixel, cfg)
     if verdict is None:
         return Verdict()
     top = float(np.percentile(h[region], 99))
-    if touching.enclosed_floor(region, h, cfg.min_height, top, pixel * pixel) >= cfg.part_area:
+    if enclosed_floor(region, h, cfg.min_height, top, pixel * pixel) >= cfg.part_area:
         return Verdict()  # a container: its rim around its floor
     return verdict
 
@@ -368,15 +380,15 @@ def _valley_split(region: NDArray[np.bool_], h: NDArray[np.float64], pixel: floa
                   ) -> Verdict | None:
     """The split at a valley between two tops, None without one deep enough (or where it cuts a handle)."""
     area = pixel * pixel
-    valley = touching.find_valley(region, h, area, cfg.part_area, cfg.min_height)
+    valley = find_valley(region, h, area, cfg.part_area, cfg.min_height)
     if (valley is None or valley.depth < cfg.valley_depth
             or valley.saddle > cfg.valley_ratio * valley.peaks[1]):
         return None
-    labels = touching.split_labels(region, h, valley.seeds)
+    labels = split_labels(region, h, valley.seeds)
     sizes = [float(np.count_nonzero(labels == i)) * area for i in (1, 2)]
-    neck = touching.neck_point(region, valley.seeds == 1, valley.seeds == 2)
+    neck = neck_point(region, valley.seeds == 1, valley.seeds == 2)
     if (min(sizes) < cfg.part_area or _handle(valley.seeds, neck, cfg)
-            or _handle(labels, touching.cut_point(labels), cfg)):
+            or _handle(labels, cut_point(labels), cfg)):
         return None
     tops = f"{1000 * valley.peaks[0]:.0f} and {1000 * valley.peaks[1]:.0f} mm high"
     return Verdict(labels, f"the lowest way between their tops ({tops}) goes down to "
@@ -388,13 +400,13 @@ def _pinch_note(region: NDArray[np.bool_], h: NDArray[np.float64], pixel: float,
     """The warning where the footprint pinches between two parts, None without a narrow enough pinch (or
     where a handle runs into the pinch)."""
     area = pixel * pixel
-    seeds = touching.neck_seeds(region, area, cfg.part_area)
+    seeds = neck_seeds(region, area, cfg.part_area)
     if seeds is None:
         return None
-    pinch = touching.find_pinch(region, seeds, pixel)
+    pinch = find_pinch(region, seeds, pixel)
     if pinch is None or pinch.width > cfg.neck_ratio * min(pinch.part_widths):
         return None
-    labels = touching.split_labels(region, h, seeds)
+    labels = split_labels(region, h, seeds)
     if _handle(seeds, pinch.at, cfg) or _handle(labels, pinch.at, cfg):
         return None
     sizes = sorted((float(np.count_nonzero(labels == i)) * area for i in (1, 2)), reverse=True)
@@ -411,9 +423,9 @@ def _handle(labels: NDArray[np.int32], at: tuple[int, int] | None, cfg: SegmentC
         return True
     for i in (1, 2):
         part = labels == i
-        if (touching.solidity(part) >= cfg.handle_solidity
-                and touching.elongation(part) >= cfg.handle_elongation
-                and touching.axis_offset(part, at) <= cfg.handle_offset):
+        if (solidity(part) >= cfg.handle_solidity
+                and elongation(part) >= cfg.handle_elongation
+                and axis_offset(part, at) <= cfg.handle_offset):
             return True
     return False
 
