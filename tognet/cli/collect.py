@@ -21,25 +21,36 @@ from tognet.cli.util import (
     user_errors,
 )
 
-#: Disk bytes one collected trial takes at least (a shard's compressed columns; 330 B measured).
-EPISODE_BYTES = 250.0
+#: Disk bytes of one collected trial's records (a shard's compressed columns) and of one shard's own
+#: headers and part-filled last block: a job writes one shard, so a trial takes :func:`trial_bytes`
+#: (EPISODE_BYTES + SHARD_BYTES / trials per job). Fitted to what benchmarks/space.py measured
+#: (2026-12-06: 512 B per trial at the default 32 trials per job, 2,219 B at 4 per job: 268 B per trial
+#: and 7.8 kB per shard), with a 1.25x margin.
+EPISODE_BYTES = 340.0
+SHARD_BYTES = 9.8e3
 #: Memory one planned job takes while a round runs (its record, the to-do list, the store's entry).
 JOB_BYTES = 1000.0
+
+
+def trial_bytes(per_job: int) -> float:
+    """Disk bytes of one trial collected ``per_job`` trials to a job (to a shard)."""
+    return EPISODE_BYTES + SHARD_BYTES / per_job
 
 
 def check_pipeline_size(cfg: Any, preset: str, tasks: list[str], out: Path) -> None:
     """Refuse a preset whose objects and rounds cannot fit on the disk of ``out`` or in memory, before
     anything is generated: the reason names the preset's numbers."""
-    from tognet.cli.objects import OBJECT_BYTES, RECORD_BYTES
+    from tognet.cli.objects import OBJECT_BYTES, OBJECT_BYTES_BY_KIND, RECORD_BYTES
 
     objects = sum(cfg.objects.values())
     label = f"--preset {preset}: {objects} objects"
-    check_disk("--preset", objects, OBJECT_BYTES, out, "object", label=label)
+    need = sum(n * OBJECT_BYTES_BY_KIND.get(kind, OBJECT_BYTES) for kind, n in cfg.objects.items())
+    check_disk("--preset", objects, need / objects, out, "object", label=label)
     check_memory("--preset", objects, RECORD_BYTES, "the objects' records", label=label)
     rounds = [cfg.grasp_round, *(rc for t in tasks for rc in cfg.rounds_for(t))]
     per_job = cfg.collect.scenes_per_job * cfg.collect.trials_per_scene
     trials = sum(rc.episodes for rc in rounds)
-    check_disk("--preset", trials, EPISODE_BYTES, out, "trial",
+    check_disk("--preset", trials, trial_bytes(per_job), out, "trial",
                label=f"--preset {preset}: {trials} trials in its rounds for {', '.join(tasks)}")
     largest = max(rc.episodes for rc in rounds)
     check_memory("--preset", -(-largest // per_job), JOB_BYTES, "its job list",
@@ -48,7 +59,7 @@ def check_pipeline_size(cfg: Any, preset: str, tasks: list[str], out: Path) -> N
 
 def check_round_size(option: str, episodes: int, per_job: int, out: Path) -> None:
     """Refuse a round that cannot fit on the disk of ``out`` or in memory, before anything is written."""
-    check_disk(option, episodes, EPISODE_BYTES, out, "trial")
+    check_disk(option, episodes, trial_bytes(per_job), out, "trial")
     check_memory(option, -(-episodes // per_job), JOB_BYTES, "the round's job list")
 
 

@@ -22,12 +22,29 @@ from tognet.cli.util import (
 )
 from tognet.planning.method_names import METHOD_NAMES
 
-#: Disk bytes of one evaluated scene (every method's record on it; 2 kB per method measured) and of one
-#: generated test object (10-20 kB), at least.
-SCENE_BYTES = 5e3
-OBJECT_BYTES = 10e3
+#: Disk bytes of one method's record on one evaluated scene (a scene takes one per method run, see
+#: :func:`scene_bytes`; the job files hold 2 scenes each by default): 1.5 kB measured by
+#: benchmarks/space.py (2026-12-06, 13.8 kB a scene with all 9 methods), with a 1.25x margin.
+METHOD_SCENE_BYTES = 1.9e3
+#: One scene with every method.
+SCENE_BYTES = METHOD_SCENE_BYTES * len(METHOD_NAMES)
 #: Memory one planned job (one object, a few scenes) takes while the evaluation runs.
 JOB_BYTES = 1000.0
+
+
+def scene_bytes(methods: str) -> float:
+    """Disk bytes of one scene evaluated with ``methods`` (--methods: 'all' or a comma-separated list)."""
+    names = {m.strip().lower() for m in methods.split(",") if m.strip()}
+    return METHOD_SCENE_BYTES * (len(METHOD_NAMES) if methods.strip() == "all" else max(len(names), 1))
+
+
+def new_objects_bytes(categories: list[str], count: int) -> float:
+    """Disk bytes of ``count`` new test objects in each of ``categories`` (objects of that kind)."""
+    from tognet.cli.objects import OBJECT_BYTES_BY_KIND
+    from tognet.evaluate.config import CATEGORIES
+
+    largest = max(OBJECT_BYTES_BY_KIND.values())  # an unknown category is refused later, by the harness
+    return count * sum(OBJECT_BYTES_BY_KIND.get(CATEGORIES.get(c, ""), largest) for c in categories)
 
 
 def check_run_folder(run: Path, tasks: list[str]) -> None:
@@ -87,7 +104,7 @@ def evaluate_cmd(
     report.md, figures/ and gifs/. --resume continues the evaluation in --out and is refused when --out
     holds none; without it an --out that already holds one is refused. Models default to the shipped
     tognet/models/<task>.pt, grasping.pt and <task>_search.pt; each is checked to be of its task and head."""
-    from tognet.evaluate.config import EvalConfig
+    from tognet.evaluate.config import CATEGORIES, EvalConfig
     from tognet.evaluate.harness import run_evaluation
 
     tasks = task_list(task)
@@ -99,13 +116,15 @@ def evaluate_cmd(
     cfg = cfg.replace(sim=robot_config(cfg.sim, robot))
     if scenes_per_job is not None:
         cfg = cfg.replace(scenes_per_job=scenes_per_job)
-    groups = len(tasks) * ((len(category) or (0 if objects else 3)) + len(objects))
+    categories = category or ([] if objects else list(CATEGORIES))
+    groups = len(tasks) * (len(categories) + len(objects))
     jobs = -(-episodes // cfg.scenes_per_job)
-    new_objects = min(jobs, test_objects or jobs) * (len(category) or (0 if objects else 3))
-    check_disk("--episodes", episodes * groups, SCENE_BYTES, out, "scene",
+    per_category = min(jobs, test_objects or jobs)
+    new_objects = per_category * len(categories)
+    check_disk("--episodes", episodes * groups, scene_bytes(methods), out, "scene",
                label=f"--episodes {episodes} (x {groups} task-category pairs)")
-    check_disk("--episodes", new_objects, OBJECT_BYTES, out, "test object",
-               label=f"--episodes {episodes}: {new_objects} new test objects")
+    check_disk("--episodes", new_objects, new_objects_bytes(categories, per_category) / max(new_objects, 1),
+               out, "test object", label=f"--episodes {episodes}: {new_objects} new test objects")
     check_memory("--episodes", jobs * groups, JOB_BYTES, "the job list",
                  label=f"--episodes {episodes} (x {groups} task-category pairs)")
     run_evaluation(out, tasks, methods, categories=category, object_dirs=objects, episodes=episodes,

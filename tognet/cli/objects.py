@@ -17,8 +17,12 @@ objects_app = typer.Typer(
 )
 
 
-#: Disk bytes of one generated object at least (PG-Primitive ~11 kB, PG-Complex ~17 kB, realistic ~19 kB).
-OBJECT_BYTES = 10e3
+#: Disk bytes one generated object takes, by kind: the blocks its folder's files (object.xml, visual.obj,
+#: collision_*.obj; several small files, each at least one 4 kB block) and its catalog entries take, as
+#: benchmarks/space.py measured them (2026-12-06: 23.3, 26.2 and 44.1 kB per object), with a 1.25x margin.
+OBJECT_BYTES_BY_KIND = {"primitive": 30e3, "complex": 33e3, "realistic": 56e3}
+#: One object of a training set (a mix of primitive and complex): the larger of the two.
+OBJECT_BYTES = max(OBJECT_BYTES_BY_KIND["primitive"], OBJECT_BYTES_BY_KIND["complex"])
 #: Memory of one object's record (catalog entry) while a set is generated or read, roughly.
 RECORD_BYTES = 4e3
 #: The widest gripper opening ``objects stats --opening`` takes (m): wider is a unit mistake (cm or mm).
@@ -73,7 +77,7 @@ def generate(
     if kind == Kind.realistic and start + count > realistic_count():
         raise ValueError(f"--count {count} --start {start}: there are {realistic_count()} realistic models "
                          f"(use --count {max(realistic_count() - start, 0)} or less)")
-    check_disk("--count", count, OBJECT_BYTES, out, "object")
+    check_disk("--count", count, OBJECT_BYTES_BY_KIND[kind.value], out, f"{kind.value} object")
     check_memory("--count", count, RECORD_BYTES, "the objects' records")
     records = generate_set(
         kind.value, split.value, count, out, start=start, progress=True, workers=workers, config=cfg

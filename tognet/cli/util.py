@@ -361,12 +361,12 @@ def check_memory(option: str, count: int, bytes_each: float, what: str, label: s
 def check_disk(option: str, count: int, bytes_each: float, folder: Path, what: str = "episode",
                label: str | None = None) -> None:
     """Refuse ``count`` items of about ``bytes_each`` bytes when the disk holding ``folder`` cannot take
-    them, before any is written: one line with the estimate and what is free (``label`` replaces the
-    opening ``<option> <count>``)."""
+    them, before any is written: one line with the estimate, what is free and the shortfall (how much more
+    is needed than is free); ``label`` replaces the opening ``<option> <count>``."""
     need = count * bytes_each
     free = shutil.disk_usage(_existing_ancestor(folder)).free
     if need > free:
         raise TognetError(
             f"{label or f'{option} {count}'}: would need about {human_bytes(need)} (about "
             f"{human_bytes(bytes_each)} per {what}), but the disk holding {folder} has {human_bytes(free)} "
-            "free; ask for fewer")
+            f"free, about {human_bytes(need - free)} short; ask for fewer or free space")
