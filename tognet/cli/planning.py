@@ -71,7 +71,8 @@ def _check_output(path: Path | None, suffix: str, option: str) -> None:
 def plan_cmd(
     depth: Path | None = typer.Option(
         None, "--depth", help="Depth image: 16-bit .png (millimetres, 0 = no reading), .npy/.npz (float "
-        "metres with NaN or 0 holes, or integer millimetres). Or --bag."),
+        "metres with NaN or 0 holes, or integer millimetres; a table at an implausible distance in that "
+        "unit is refused, naming the unit the values look like). Or --bag."),
     intrinsics: Path | None = typer.Option(
         None, "--intrinsics", help="Intrinsics JSON: width, height, fx, fy, cx, cy (pixels); see the README. "
         "With --bag, this or --info-topic."),
@@ -96,7 +97,8 @@ def plan_cmd(
     rerun: Path | None = _RERUN,
     reference: tuple[float, float, float] | None = typer.Option(
         None, "--reference", metavar="X Y Z", help=f"The task's reference point ({reference_points()}), "
-        "world frame with --camera-pose, else table frame: the start pose is then given absolutely too."),
+        "world frame with --camera-pose, else table frame: the start pose is then given absolutely too. "
+        "Refused far from the table the image shows or beyond the --robot arm's reach (limits in --config)."),
     object_: str | None = typer.Option(
         None, "--object", metavar="INDEX|U,V", help="The object to plan on, when the image shows several: "
         "its index in the plan's list of objects, or a pixel U,V on it. Default: the largest near the "
