@@ -144,6 +144,11 @@ def ws(tmp_path_factory):
     np.save(root / "depth_small.npy", depth[:100, :100])
     camera.save(root / "camera.json")
     save_depth_png(root / "d.png", depth)
+    from PIL import Image
+
+    for name, per_metre in (("d_cm.png", 100), ("d_tenth_mm.png", 10_000)):  # 16-bit PNGs in other units
+        Image.fromarray(np.rint(per_metre * np.nan_to_num(depth)).astype(np.uint16)).save(root / name)
+    np.save(root / "depth_cm.npy", (100 * np.nan_to_num(depth)).astype(np.float32))  # centimetres as floats
     save_intrinsics(root / "d.intrinsics.json", k)
     save_camera_pose(root / "d.pose.json", camera.pose)
     base = json.loads((root / "d.intrinsics.json").read_text())
@@ -481,7 +486,16 @@ CASES: dict[str, Case] = {
     "plan-depth-npz-garbage": Case("plan --depth @garbage.npz --intrinsics @d.intrinsics.json --task "
                                    "hammering", "garbage.npz"),
     "plan-depth-mm": Case("plan --depth @depth_mm.npy --intrinsics @d.intrinsics.json --task hammering",
-                          "millimetres"),
+                          "look like millimetres (the table would be 0.70 m away): divide by 1000 to metres"),
+    "plan-depth-cm-float": Case("plan --depth @depth_cm.npy --intrinsics @d.intrinsics.json --task "
+                                "hammering", "look like centimetres (the table would be 0.70 m away): divide "
+                                "by 100 to metres"),
+    "plan-depth-cm-png": Case("plan --depth @d_cm.png --intrinsics @d.intrinsics.json --task hammering",
+                              "look like centimetres (the table would be 0.70 m away): multiply by 10 to "
+                              "millimetres"),
+    "plan-depth-tenth-mm-png": Case("plan --depth @d_tenth_mm.png --intrinsics @d.intrinsics.json --task "
+                                    "hammering", "look like 0.1 mm (the table would be 0.70 m away): divide "
+                                    "by 10 to millimetres"),
     "plan-intrinsics-missing": Case("plan --depth @d.png --intrinsics @nope.json --task hammering",
                                     "nope.json"),
     "plan-intrinsics-bad": Case("plan --depth @d.png --intrinsics @bad.json --task hammering", "bad.json"),
@@ -505,6 +519,15 @@ CASES: dict[str, Case] = {
     "plan-overlay-sys": Case(f"{PP} --overlay /sys/tognet-o.png", "/sys"),
     "plan-overlay-suffix": Case(f"{PP} --overlay @out/o.jpg", ".png"),
     "plan-reference-nan": Case(f"{PP} --reference nan 0 0", "--reference"),
+    "plan-reference-far": Case(f"{PP} --reference 100 0 0.05",
+                               "reference point 100 0 0.05 m (world frame) is 99.5"),
+    "plan-reference-far-table": Case(f"{P} --reference 0 -100 0.05",
+                                     "(table frame) is 99.60 m from the table"),
+    "plan-reference-under-table": Case(f"{PP} --reference 0.2 0 -0.5", "0 -0.5 m (world frame) is 0.500 m "
+                                       "below the table top"),
+    "plan-reference-high": Case(f"{PP} --reference 0.2 0 3", "3.000 m above the table top"),
+    "plan-reference-out-of-reach": Case(f"{PP} --robot sawyer --reference 1.5 0 0.05",
+                                        "beyond the sawyer's reach" if HAVE_ROBOT else "tognet[robot]"),
     "plan-robot-unknown": Case(f"{PP} --robot ur5", "ur5"),
     "plan-base-pose-without-robot": Case(f"{PP} --base-pose @base_far.json", "--robot"),
     "plan-base-pose-missing": Case(f"{PP} --robot sawyer --base-pose @nope.json", "nope.json"),

@@ -261,6 +261,55 @@ def test_the_one_call_api_and_a_low_score_warning(checkpoints, observation):
     np.testing.assert_array_equal(again.grasp.table, plan.grasp.table)  # seeded: reproducible
 
 
+# --- the depth image's scale and the reference point -----------------------------------------------------
+def _png(path, height, per_metre=1000, focal=365.0):
+    """A 16-bit PNG of a T on a table ``height`` m below a camera looking down, in 1 / ``per_metre`` m."""
+    from PIL import Image
+
+    k = CameraIntrinsics(512, 424, focal, focal, 255.5, 211.5)
+    depth = render_depth(Camera.looking_down(k, [0.0, 0.0, height]), t_shape(0.0, 0.0, yaw=0.3))
+    Image.fromarray(np.rint(per_metre * np.nan_to_num(depth)).astype(np.uint16)).save(path)
+    return path, k
+
+
+@pytest.mark.parametrize("height", [0.4, 0.8, 1.2])
+def test_a_millimetre_png_of_a_table_0_4_to_1_2_m_away_has_no_scale_warning(height, planner, tmp_path):
+    path, k = _png(tmp_path / "d.png", height)
+    plan = planner.plan(path, k)
+    assert plan.plane.offset == pytest.approx(height, abs=0.01)
+    assert not [w for w in plan.warnings if "(the median depth;" in w], plan.warnings
+
+
+def test_a_png_of_doubtful_scale_warns_or_fails_naming_the_unit_it_looks_like(planner, tmp_path):
+    far, k = _png(tmp_path / "far.png", 2.8, focal=1500.0)  # millimetres, but 2.8 m away reads like 0.1 mm
+    plan = planner.plan(far, k)
+    assert [w for w in plan.warnings if "the table is 2.80 m from the camera" in w
+            and "if the values are 0.1 mm (the table 0.28 m away), divide by 10 to millimetres" in w]
+    tenth, k = _png(tmp_path / "tenth.png", 0.4, per_metre=10_000)  # reads as 4 m: accepted, then fails
+    with pytest.raises(Exception, match=r"scale may be why: .*tenth.png: the table is 4.00 m .* if the "
+                       r"values are 0.1 mm \(the table 0.40 m away\), divide by 10 to millimetres"):
+        planner.plan(tenth, k)
+    assert UserPlanner.read_inputs(tenth, k)[0] is not None  # a warning, not an error, at the read
+
+
+@pytest.mark.parametrize("task", ["sweeping", "hammering", "pulling"])
+def test_the_tasks_reference_points_pass_the_limits_and_far_ones_do_not(task, observation):
+    from tognet.planning.limits import InputLimits, check_reference, footprint
+    from tognet.tasks import get_task
+
+    cam = observation.camera  # the simulator's camera: world frame, z = 0 the table top
+    box = footprint(cam.deproject(observation.depth)[::4, ::4].reshape(-1, 3))
+    t, rng = get_task(task), np.random.default_rng(0)
+    limits = InputLimits()
+    for _ in range(200):
+        ref = t.reference(t.sample_layout(rng))
+        check_reference(ref, ref, box, "world", limits)
+    for far, what in (((3.0, 0.0, 0.0), "from the table the image shows"), ((0.2, 0.0, -0.1), "below"),
+                      ((0.2, 0.0, 0.8), "above")):
+        with pytest.raises(ValueError, match=what):
+            check_reference(np.array(far), np.array(far), box, "world", limits)
+
+
 # --- bad inputs: one clear line each, nothing written -------------------------------------------------------
 @pytest.fixture(scope="module")
 def scene_files(tmp_path_factory, observation):
@@ -283,10 +332,11 @@ def _bad_case(case, tmp, files, checkpoints):
         return {"--depth": tmp / "d.npy"}, "must be numeric, got dtype bool"
     if case == "millimetres_as_metres":
         np.save(tmp / "d.npy", (obs.depth * 1000).astype(np.float32))
-        return {"--depth": tmp / "d.npy"}, "is the image in millimetres?"
+        return {"--depth": tmp / "d.npy"}, "the values look like millimetres"
     if case == "metres_as_millimetres":
         save_depth_png(tmp / "d.png", obs.depth / 1000)  # metres written into a 16-bit PNG: 0 or 1
-        return {"--depth": tmp / "d.png"}, "metres as integers?"
+        return {"--depth": tmp / "d.png"}, ("the values look like metres (the table would be 1.00 m away): "
+                                            "multiply by 1000")
     if case == "all_nan":
         np.save(tmp / "d.npy", np.full(k.shape, np.nan, np.float32))
         return {"--depth": tmp / "d.npy"}, "no valid pixels"

@@ -71,7 +71,8 @@ def _check_output(path: Path | None, suffix: str, option: str) -> None:
 def plan_cmd(
     depth: Path | None = typer.Option(
         None, "--depth", help="Depth image: 16-bit .png (millimetres, 0 = no reading), .npy/.npz (float "
-        "metres with NaN or 0 holes, or integer millimetres). Or --bag."),
+        "metres with NaN or 0 holes, or integer millimetres; a table at an implausible distance in that "
+        "unit is refused, naming the unit the values look like). Or --bag."),
     intrinsics: Path | None = typer.Option(
         None, "--intrinsics", help="Intrinsics JSON: width, height, fx, fy, cx, cy (pixels); see the README. "
         "With --bag, this or --info-topic."),
@@ -96,7 +97,8 @@ def plan_cmd(
     rerun: Path | None = _RERUN,
     reference: tuple[float, float, float] | None = typer.Option(
         None, "--reference", metavar="X Y Z", help=f"The task's reference point ({reference_points()}), "
-        "world frame with --camera-pose, else table frame: the start pose is then given absolutely too."),
+        "world frame with --camera-pose, else table frame: the start pose is then given absolutely too. "
+        "Refused far from the table the image shows or beyond the --robot arm's reach (limits in --config)."),
     object_: str | None = typer.Option(
         None, "--object", metavar="INDEX|U,V", help="The object to plan on, when the image shows several: "
         "its index in the plan's list of objects, or a pixel U,V on it. Default: the largest near the "
@@ -135,9 +137,10 @@ def plan_cmd(
     cfg = UserPlanConfig.load(config) if config is not None else UserPlanConfig()
     cfg = cfg.replace(top=top, seed=seed)
     pose = load_camera_pose(camera_pose) if camera_pose is not None else None
-    image, k, pose = _read_image(source, pose)  # every input checked before the model loads
+    # every input checked before the model loads (the reference point against the table: in the plan)
+    raw, image, k, pose = _read_image(source, pose, cfg.limits)
     planner = UserPlanner(task, checkpoint, cfg, robot=arm, method=method)
-    plan = planner.plan(image, k, pose, reference=reference, object=choice)
+    plan = planner.plan(raw, k, pose, reference=reference, object=choice)  # as read: its unit is judged
     _print_plan(plan, task, out)
     for text in plan.warnings:
         typer.secho(f"warning: {text}", fg=typer.colors.YELLOW, err=True)
@@ -199,20 +202,22 @@ def _source(depth: Path | None, intrinsics: Path | None, bag: Path | None, depth
             "intrinsics": intrinsics}
 
 
-def _read_image(source: dict[str, Any], pose: Any) -> tuple[Any, Any, Any]:
-    """The image (float metres, NaN holes), the intrinsics and the pose, from files or a bag."""
+def _read_image(source: dict[str, Any], pose: Any, limits: Any) -> tuple[Any, Any, Any, Any]:
+    """The image as given (the --depth file, the bag's array as its message held it), the image (float
+    metres, NaN holes), the intrinsics and the pose, from files or a bag, checked."""
     from tognet.planning.camera import load_intrinsics
     from tognet.planning.user import UserPlanner
 
     if "bag" not in source:
-        return UserPlanner.read_inputs(source["depth"], load_intrinsics(source["intrinsics"]), pose)
+        k = load_intrinsics(source["intrinsics"])
+        return (source["depth"], *UserPlanner.read_inputs(source["depth"], k, pose, limits))
     from tognet.planning.bags import read_bag
 
     frame = read_bag(source["bag"], source["depth_topic"], source["info_topic"], source["at"])
     k = frame.intrinsics if frame.intrinsics is not None else load_intrinsics(source["intrinsics"])
     typer.echo(f"bag: {source['depth_topic']} at {frame.time:.3f} s, {frame.depth.shape[1]} x "
                f"{frame.depth.shape[0]} {frame.depth.dtype}", err=True)
-    return UserPlanner.read_inputs(frame.depth, k, pose)
+    return (frame.depth, *UserPlanner.read_inputs(frame.depth, k, pose, limits))
 
 
 def _arm_config(robot: str | None, base_pose: Path | None) -> Any:

@@ -211,8 +211,8 @@ def validate_depth(
     """Check a depth image and return it as float32 metres with holes as NaN.
 
     Zeros and non-finite values are holes. Raises :class:`DepthImageError` for a non-numeric dtype,
-    a shape that is not 2-D (or not the camera's), an image that is all holes, or values that look
-    like millimetres (median above ``max_depth``).
+    a shape that is not 2-D (or not the camera's), an image that is all holes, or a median depth outside
+    ``min_depth``..``max_depth`` (values in another unit; :mod:`tognet.planning.limits` judges which).
     """
     arr = np.asarray(depth)
     if arr.dtype.kind not in "fiu":
@@ -231,10 +231,11 @@ def validate_depth(
     if not valid.any():
         raise DepthImageError("depth image has no valid pixels (all NaN, zero or negative)")
     median = float(np.median(out[valid]))
+    read = "16-bit PNGs and integer arrays are read as millimetres, float arrays as metres"
     if median > max_depth:
-        raise DepthImageError(
-            f"median depth {median:.1f} exceeds {max_depth} m: is the image in millimetres? divide by 1000"
-        )
+        raise DepthImageError(f"median depth {median:.1f} m exceeds {max_depth:g} m: the values in another "
+                              f"unit? ({read}; `tognet plan` names the unit they look like)")
     if median < min_depth:
-        raise DepthImageError(f"median depth {median:.4f} m is below {min_depth} m: wrong units?")
+        raise DepthImageError(f"median depth {median:.4f} m is below {min_depth:g} m: the values in another "
+                              f"unit? ({read}; `tognet plan` names the unit they look like)")
     return out

@@ -176,10 +176,23 @@ def load_depth_file(path: str | Path) -> NDArray[np.float32]:
     Integer .npy/.npz arrays are taken as millimetres (what sensors write). Raises FileNotFoundError or
     :class:`DepthImageError` naming the file and the problem.
     """
+    return depth_in_metres(read_depth_file(path))
+
+
+def read_depth_file(path: str | Path) -> NDArray:
+    """The depth image of a file as stored (a 16-bit PNG's integer millimetres, a .npy/.npz array's own
+    dtype), for callers that judge its unit (:func:`load_depth_file` converts it to metres)."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"depth file not found: {path}")
-    return load_depth_bytes(path.read_bytes(), path.suffix.lower(), str(path))
+    return read_depth_bytes(path.read_bytes(), path.suffix.lower(), str(path))
+
+
+def depth_in_metres(raw: NDArray) -> NDArray[np.float32]:
+    """A depth image as read (integer millimetres or float metres) in float32 metres."""
+    if raw.dtype.kind in "iu":
+        return (raw.astype(np.float32) / 1000.0).astype(np.float32, copy=False)
+    return raw.astype(np.float32, copy=False)
 
 
 def depth_suffix(data: bytes) -> str | None:
@@ -190,6 +203,11 @@ def depth_suffix(data: bytes) -> str | None:
 def load_depth_bytes(data: bytes, suffix: str, where: str = "depth image") -> NDArray[np.float32]:
     """A depth image from the bytes of a file of type ``suffix`` (as :func:`load_depth_file`; ``where``
     names it in errors)."""
+    return depth_in_metres(read_depth_bytes(data, suffix, where))
+
+
+def read_depth_bytes(data: bytes, suffix: str, where: str = "depth image") -> NDArray:
+    """The depth image of a file's bytes as stored (as :func:`read_depth_file`)."""
     import io
 
     magic = DEPTH_FORMATS.get(suffix)
@@ -216,7 +234,7 @@ def load_depth_bytes(data: bytes, suffix: str, where: str = "depth image") -> ND
                     raise DepthImageError(
                         f"{where}: PNG mode {img.mode!r} is not a 16-bit depth image (millimetres expected)"
                     )
-                arr = np.asarray(img).astype(np.float32) / 1000.0
+                arr = np.asarray(img)
         else:
             raise DepthImageError(f"{where}: unsupported depth file type {suffix!r} (use .npy, .npz or .png)")
     except DepthImageError:
@@ -227,8 +245,6 @@ def load_depth_bytes(data: bytes, suffix: str, where: str = "depth image") -> ND
             raise DepthImageError(f"{where}: holds Python objects, not a numeric depth array") from None
         raise DepthImageError(f"{where}: cannot read depth image, damaged or truncated? ({text})") from None
     arr = np.asarray(arr)
-    if arr.dtype.kind in "iu" and suffix != ".png":
-        arr = arr.astype(np.float32) / 1000.0
     if arr.dtype.kind not in "fiu":
         raise DepthImageError(f"{where}: depth image must be numeric, got dtype {arr.dtype}")
-    return arr.astype(np.float32, copy=False)
+    return arr

@@ -52,11 +52,25 @@ from tognet.config import Config, doc
 from tognet.errors import TognetError
 from tognet.geometry import Camera, CameraIntrinsics, DepthImageError, validate_depth
 from tognet.grasping.antipodal import AntipodalConfig, GraspCandidates, sample_antipodal
-from tognet.grasping.depth import DepthScene, fill_holes_by_height, height_map, load_depth_file
+from tognet.grasping.depth import (
+    DepthScene,
+    depth_in_metres,
+    fill_holes_by_height,
+    height_map,
+    read_depth_file,
+)
 from tognet.grasping.nms import NMSConfig
 from tognet.planning.camera import check_image_size, load_camera_pose, load_intrinsics
 from tognet.planning.confidence import low_confidence
 from tognet.planning.config import PlanConfig, ReachConfig
+from tognet.planning.limits import (
+    InputLimits,
+    check_depth_scale,
+    check_reference,
+    check_reference_reach,
+    footprint,
+    how_read,
+)
 from tognet.planning.methods import (
     BEST_FIRST,
     METHOD_TABLE,
@@ -138,6 +152,11 @@ class UserPlanConfig(Config):
         text="With an arm (``robot``, ``tognet plan --robot``): how many grasps are checked against its "
         "reach (``enabled`` is not read: naming the arm is the switch).",
     )
+    limits: InputLimits = doc(
+        factory=InputLimits,
+        text="The plausible inputs: the depth image's scale judged from the table's distance, the reference "
+        "point's distance from the table the image shows and from the arm (:mod:`tognet.planning.limits`).",
+    )
 
     def __post_init__(self) -> None:
         if self.top < 0:
@@ -194,34 +213,13 @@ class UserPlanner:
         return next(iter(self.models.values()), None)
 
     @staticmethod
-    def read_inputs(depth: Any, intrinsics: Any, camera_pose: Any = None
+    def read_inputs(depth: Any, intrinsics: Any, camera_pose: Any = None, limits: InputLimits | None = None
                     ) -> tuple[NDArray[np.float32], CameraIntrinsics, NDArray[np.float64] | None]:
-        """The depth image (float32 metres, NaN holes), intrinsics and pose, checked against each other."""
-        where = str(depth) if isinstance(depth, str | Path) else "depth image"
-        k = load_intrinsics(intrinsics)
-        pose = None if camera_pose is None else load_camera_pose(camera_pose)
-        raw = load_depth_file(depth) if isinstance(depth, str | Path) else np.asarray(depth)
-        if raw.dtype.kind not in "fiu":
-            raise DepthImageError(f"{where}: depth image must be numeric, got dtype {raw.dtype}")
-        if raw.ndim == 3 and raw.shape[-1] == 1:
-            raw = raw[..., 0]
-        if raw.ndim != 2:
-            raise DepthImageError(f"{where}: depth image must be 2-D (height, width), got shape {raw.shape}")
-        if raw.size == 0:
-            raise DepthImageError(f"{where}: the depth image is empty (shape {raw.shape})")
-        check_image_size(raw.shape, k, where)
-        integer = raw.dtype.kind in "iu" and not isinstance(depth, str | Path)
-        if integer:  # an integer array handed in directly: millimetres, as the files are read
-            raw = raw.astype(np.float32) / 1000.0
-        try:
-            valid = validate_depth(raw, k, min_depth=0.1, max_depth=5.0)
-        except DepthImageError as exc:
-            text = str(exc)
-            if "millimetres" in text:
-                text += " (float images are read as metres)"
-            elif "below" in text:
-                text += " (16-bit PNGs and integer arrays are read as millimetres: metres as integers?)"
-            raise DepthImageError(f"{where}: {text}") from None
+        """The depth image (float32 metres, NaN holes), intrinsics and pose, checked against each other;
+        DepthImageError for a depth image whose table is not at a distance a camera sees a table from in
+        the unit it is read in (16-bit PNGs and integer arrays: millimetres; float arrays: metres), naming
+        the unit it looks like (``limits``, :mod:`tognet.planning.limits`)."""
+        valid, k, pose, _ = _read_inputs(depth, intrinsics, camera_pose, limits or InputLimits())
         return valid, k, pose
 
     # --- the plan ----------------------------------------------------------------------------------------
@@ -234,17 +232,31 @@ class UserPlanner:
         on, its index in ``UserPlan.objects`` or a pixel (u, v) on it (default: the first of that list that
         looks like something to pick up and on which the gripper finds a grasp: the largest near the image's
         centre, else the nearest to it)."""
+        t0 = time.perf_counter()
+        valid, k, pose, scale = _read_inputs(depth, intrinsics, camera_pose, self.config.limits)
+        try:
+            return self._plan_read(valid, k, pose, scale, reference, seed, object, t0)
+        except TognetError as exc:  # a plan that fails on an image of doubtful scale says so in its line
+            if scale and exc.args and isinstance(exc.args[0], str):
+                exc.args = (f"{exc.args[0]}; the depth image's scale may be why: {scale}", *exc.args[1:])
+            raise
+
+    def _plan_read(self, valid: NDArray[np.float32], k: CameraIntrinsics, pose: NDArray[np.float64] | None,
+                   scale: str | None, reference: ArrayLike | None, seed: int | None,
+                   object: int | tuple[float, float] | None, t0: float) -> UserPlan:
+        """:meth:`plan` on the image as read (``scale``: the warning on its scale, if any)."""
         cfg = self.config
         seed = cfg.seed if seed is None else seed
-        t0 = time.perf_counter()
-        valid, k, pose = self.read_inputs(depth, intrinsics, camera_pose)
         t1 = time.perf_counter()
         view = self._table_view(valid, k, pose)
+        ref = None if reference is None else np.asarray(reference, dtype=np.float64).reshape(3)
+        if ref is not None:
+            self._check_reference(ref, view, pose)
         t2 = time.perf_counter()
         found = self._objects(view)
         target, why = pick_object(found, object)
         fit = [o for o in found if o.qualifies]
-        warnings = _object_warnings(found, target)
+        warnings = ([scale] if scale else []) + _object_warnings(found, target)
         t3 = time.perf_counter()
         rng = np.random.default_rng(seed)
         # The default choice falls back on the next object that qualifies when the gripper finds no grasp on
@@ -257,7 +269,6 @@ class UserPlanner:
         warnings += _choice_warnings(fit, target, skipped, why, object is None)
         t4 = time.perf_counter()
         reach = None if self.arm_reach is None else FramedReach(self.arm_reach, _frame_from_table(view, pose))
-        ref = None if reference is None else np.asarray(reference, dtype=np.float64).reshape(3)
         timing = dict(read=t1 - t0, table=t2 - t1, objects=t3 - t2, candidates=t4 - t3)
         plan = self._plan_view(scene, cands, reach, ref, rng, timing)
         out = self._planned(plan, view, pose, reference)
@@ -307,6 +318,21 @@ class UserPlanner:
             self._check_pose(height[::3, ::3][~holes[::3, ::3]], valid, k, plane)
         return _TableView(plane, table_from_camera, camera, valid, holes, measured_height, filled, height,
                           from_pose=pose is not None)
+
+    def _check_reference(self, ref: NDArray[np.float64], view: _TableView, pose: NDArray[np.float64] | None
+                         ) -> None:
+        """PlanInputError when the reference point is far from the table the image shows, below or high
+        above the table top, or (with an arm) puts the task's start pose beyond the arm's reach."""
+        limits = self.config.limits
+        frame = "world" if pose is not None else "table"
+        in_table = (np.linalg.inv(_frame_from_table(view, pose)) @ np.append(ref, 1.0))[:3]
+        points = view.camera.deproject(view.valid)[::4, ::4].reshape(-1, 3)
+        try:
+            check_reference(ref, in_table, footprint(points), frame, limits)
+            if self.arm_reach is not None:
+                check_reference_reach(ref, frame, self.task, self.arm_reach, limits)
+        except ValueError as exc:
+            raise PlanInputError(str(exc)) from None
 
     def _objects(self, view: _TableView) -> list[TableObject]:
         """The objects on the table, from measured pixels only; NoObjectError saying what was seen when
@@ -413,6 +439,33 @@ class UserPlanner:
             f"(world z = 0; at least {100 * cfg.min_inliers:.0f} % expected): {found}. Is world z = 0 the "
             "table top, in metres, and the pose world_from_camera?"
         )
+
+
+def _read_inputs(depth: Any, intrinsics: Any, camera_pose: Any, limits: InputLimits
+                 ) -> tuple[NDArray[np.float32], CameraIntrinsics, NDArray[np.float64] | None, str | None]:
+    """:meth:`UserPlanner.read_inputs` and the warning on the depth image's scale (None when none)."""
+    path = isinstance(depth, str | Path)
+    where = str(depth) if path else "depth image"
+    k = load_intrinsics(intrinsics)
+    pose = None if camera_pose is None else load_camera_pose(camera_pose)
+    raw = read_depth_file(depth) if path else np.asarray(depth)
+    if raw.dtype.kind not in "fiu":
+        raise DepthImageError(f"{where}: depth image must be numeric, got dtype {raw.dtype}")
+    if raw.ndim == 3 and raw.shape[-1] == 1:
+        raw = raw[..., 0]
+    if raw.ndim != 2:
+        raise DepthImageError(f"{where}: depth image must be 2-D (height, width), got shape {raw.shape}")
+    if raw.size == 0:
+        raise DepthImageError(f"{where}: the depth image is empty (shape {raw.shape})")
+    check_image_size(raw.shape, k, where)
+    read_as, how = how_read(raw, Path(depth).suffix.lower() if path else None)
+    try:  # the scale is judged below, from the table's distance
+        valid = validate_depth(depth_in_metres(raw), k, min_depth=0.0, max_depth=math.inf)
+    except DepthImageError as exc:
+        raise DepthImageError(f"{where}: {exc}") from None
+    distance = float(np.median(valid[np.isfinite(valid)]))
+    warning = check_depth_scale(distance, read_as, how, where, limits)
+    return valid, k, pose, warning
 
 
 _PLANNERS: dict[tuple[str, str, str, str], UserPlanner] = {}

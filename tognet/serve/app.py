@@ -94,9 +94,10 @@ def image_shape(data: bytes) -> tuple[int, int] | None:
 
 
 def read_depth(data: bytes, config: ServeConfig) -> np.ndarray:
-    """The depth image of a request (float metres or integer millimetres, as ``tognet plan`` reads files);
-    RequestError for an empty, oversized or unreadable one."""
-    from tognet.grasping.depth import depth_suffix, load_depth_bytes
+    """The depth image of a request as stored (float metres or integer millimetres, as ``tognet plan``
+    reads files; the planner converts it and judges its unit); RequestError for an empty, oversized or
+    unreadable one."""
+    from tognet.grasping.depth import depth_suffix, read_depth_bytes
 
     if not data:
         raise RequestError("depth: the file is empty")
@@ -107,7 +108,7 @@ def read_depth(data: bytes, config: ServeConfig) -> np.ndarray:
     suffix = depth_suffix(data)
     if suffix is None:
         raise RequestError("depth: not a 16-bit PNG, .npy or .npz file (unknown first bytes)")
-    return load_depth_bytes(data, suffix, "depth")
+    return read_depth_bytes(data, suffix, "depth")
 
 
 def _json_field(text: str | None, name: str) -> Any:
