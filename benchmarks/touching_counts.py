@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from touching_testlib import KINECT2, REALSENSE, aim, owners, render, settle  # noqa: E402
+from touching_testlib import KINECT2, REALSENSE, aim, outcome, owners, render, settle  # noqa: E402
 
 from tognet.geometry import Camera  # noqa: E402
 from tognet.grasping.depth import height_map  # noqa: E402
@@ -48,21 +48,6 @@ def _photo(scene, view, seed):
 
 def _segment(depth, height, table, config):
     return segment_objects(height, depth, table.intrinsics, table.pose, config, table_noise(height, depth))
-
-
-def _outcome(found, owner):
-    fit = [o for o in found if o.qualifies]
-    halves = [o for o in fit if o.split]
-    if halves:
-        counts = [[np.count_nonzero(o.mask & (owner == t)) for t in (0, 1)] for o in halves]
-        best = [int(np.argmax(c)) for c in counts]
-        share = min(max(c) / max(sum(c), 1) for c in counts)
-        return "split right" if len(halves) == 2 and best[0] != best[1] and share > 0.8 else "split wrong"
-    sizes = [max(np.count_nonzero(owner == t), 1) for t in (0, 1)]
-    both = [o for o in fit if min(np.count_nonzero(o.mask & (owner == t)) / sizes[t] for t in (0, 1)) > 0.2]
-    if not both:
-        return "apart"
-    return "reported" if both[0].touching is not None else "missed"
 
 
 def main() -> None:
@@ -101,7 +86,7 @@ def main() -> None:
                 j = (i * 7 + 3) % end
                 scene = settle([a[i], b[j]], arrangement, seed=i)
                 depth, height, table, camera, clean = _photo(scene, i % len(VIEWS), i)
-                counts[(mix, arrangement, _outcome(_segment(depth, height, table, config),
+                counts[(mix, arrangement, outcome(_segment(depth, height, table, config),
                                                    owners(scene, camera, clean)))] += 1
     for key in sorted(counts):
         print(" / ".join(key[:2]), key[2], counts[key])

@@ -10,7 +10,7 @@ tools themselves.
 
 import numpy as np
 import pytest
-from touching_testlib import KINECT2, REALSENSE, aim, owners, render, settle
+from touching_testlib import KINECT2, REALSENSE, aim, outcome, owners, render, settle
 
 from tognet.geometry import Camera
 from tognet.grasping.depth import height_map
@@ -82,23 +82,6 @@ def _pairs(tools, arrangement, count):
         yield i, a[i % COUNT], b[(3 * i + 1) % COUNT]
 
 
-def _outcome(found, owner):
-    """'apart' (already two regions), 'split right' (two halves, each 80 % one tool, different tools),
-    'split wrong', 'reported' (one region, the warning) or 'missed'."""
-    fit = [o for o in found if o.qualifies]
-    halves = [o for o in fit if o.split]
-    if halves:
-        counts = [[np.count_nonzero(o.mask & (owner == t)) for t in (0, 1)] for o in halves]
-        best = [int(np.argmax(c)) for c in counts]
-        share = min(max(c) / max(sum(c), 1) for c in counts)
-        return "split right" if len(halves) == 2 and best[0] != best[1] and share > 0.8 else "split wrong"
-    tools = [np.count_nonzero(owner == t) for t in (0, 1)]
-    both = [o for o in fit if min(np.count_nonzero(o.mask & (owner == t)) / tools[t] for t in (0, 1)) > 0.2]
-    if not both:
-        return "apart"
-    return "reported" if both[0].touching is not None else "missed"
-
-
 def test_two_tools_side_by_side_are_split_into_the_tools_or_reported(tools):
     """12 pairs slid together until their collision geoms are 1 mm apart. Measured on this batch: 2 split
     into the two tools (each half 80 % or more one tool), 1 split wrongly (part of one tool given to the
@@ -109,7 +92,7 @@ def test_two_tools_side_by_side_are_split_into_the_tools_or_reported(tools):
         scene = settle([a, b], "side", seed=i)
         assert scene.gap < 0.0015  # touching, as the physics settled them
         depth, camera, true_camera, clean = _image(scene, seed=i)
-        seen.append(_outcome(_segment(depth, camera), owners(scene, true_camera, clean)))
+        seen.append(outcome(_segment(depth, camera), owners(scene, true_camera, clean)))
     assert seen.count("split right") >= 2 and seen.count("split right") + seen.count("reported") >= 4, seen
     assert seen.count("split wrong") <= 1, seen
 
@@ -118,7 +101,7 @@ def test_the_split_objects_name_each_other_and_the_plan_says_so(tools):
     from tognet.planning.user import UserPlanner
 
     i, a, b = next((i, a, b) for i, a, b in _pairs(tools, "side", 12)
-                   if _outcome(*_found_and_owner(a, b, i)) == "split right")
+                   if outcome(*_found_and_owner(a, b, i)) == "split right")
     scene = settle([a, b], "side", seed=i)
     depth, camera, _, _ = _image(scene, seed=i)
     plan = UserPlanner("hammering").plan(depth, camera.intrinsics)
@@ -165,5 +148,5 @@ def test_one_tool_lying_across_another_is_counted(tools):
     for i, a, b in _pairs(tools, "across", 8):
         scene = settle([a, b], "across", seed=i)
         depth, camera, true_camera, clean = _image(scene, seed=i)
-        seen.append(_outcome(_segment(depth, camera), owners(scene, true_camera, clean)))
+        seen.append(outcome(_segment(depth, camera), owners(scene, true_camera, clean)))
     assert "split wrong" not in seen, seen

@@ -164,3 +164,21 @@ def owners(scene: Settled, camera: Camera, clean: NDArray[np.float32]) -> NDArra
         table = render([], camera)
         out[(alone == clean) & (alone < table - 0.002)] = i
     return out
+
+
+def outcome(found: list, owner: np.ndarray) -> str:
+    """How ``found`` (segmented objects) parts the two tools of ``owner`` (each pixel's tool, -1 none):
+    'apart' (already two regions), 'split right' (two halves, each 80 % one tool, different tools),
+    'split wrong', 'reported' (one region, the warning) or 'missed'."""
+    fit = [o for o in found if o.qualifies]
+    halves = [o for o in fit if o.split]
+    if halves:
+        counts = [[np.count_nonzero(o.mask & (owner == t)) for t in (0, 1)] for o in halves]
+        best = [int(np.argmax(c)) for c in counts]
+        share = min(max(c) / max(sum(c), 1) for c in counts)
+        return "split right" if len(halves) == 2 and best[0] != best[1] and share > 0.8 else "split wrong"
+    tools = [max(np.count_nonzero(owner == t), 1) for t in (0, 1)]
+    both = [o for o in fit if min(np.count_nonzero(o.mask & (owner == t)) / tools[t] for t in (0, 1)) > 0.2]
+    if not both:
+        return "apart"
+    return "reported" if both[0].touching is not None else "missed"
