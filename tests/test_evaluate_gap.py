@@ -225,3 +225,18 @@ def test_learning_curve_from_the_rounds_summaries(tmp_path):
     (tmp_path / "sweeping" / "round1").mkdir(parents=True)
     (tmp_path / "sweeping" / "round1" / "summary.json").write_text(json.dumps(summary(500, 0.2)))
     assert learning_curve(tmp_path, ["sweeping"], tmp_path / "none.png") is None  # no greedy trials
+
+
+def test_the_scenes_a_method_solves_beyond_the_oracle_are_counted_and_shown(results):
+    from tognet.evaluate.report import oracle_table
+
+    beyond = results["tasks"][TASK]["categories"][CAT]["all"]["beyond_oracle"]
+    want = {m: len(WINS[m] - WINS["Oracle"]) for m in METHODS if m != "Oracle"}
+    assert {m: b["scenes"] for m, b in beyond.items()} == want
+    assert want["Task_Agn+Trained"] == 1 and want["TOG-Net+ActionSearch"] == 0
+    assert all(b["pairs"] == len(SCENES) for b in beyond.values())
+    rows = {row[0]: row[1] for row in oracle_table(results, TASK, "all").rows}
+    assert rows["Task_Agn+Trained"] == "25; 1 of 10"  # 2 of 10 against the Oracle's 8, one scene it misses
+    no_oracle = summarise(_records([m for m in METHODS if m != "Oracle"]), [TASK],
+                          [m for m in METHODS if m != "Oracle"], [CAT])
+    assert no_oracle["tasks"][TASK]["categories"][CAT]["all"]["beyond_oracle"] == {}

@@ -429,6 +429,20 @@ def paired(first: Sequence[dict[str, Any]], second: Sequence[dict[str, Any]]) ->
     return paired_difference([a[k] for k in keys], [b[k] for k in keys])
 
 
+def beyond_bound(per_method: dict[str, list[dict[str, Any]]], bound: str) -> dict[str, dict[str, int]]:
+    """Per method, the scenes it solves that the ``bound`` row does not (``scenes``) out of the scenes
+    where both trials are valid (``pairs``): a bound worth its name has 0 for every method. Empty without
+    the bound's row."""
+    if bound not in per_method:
+        return {}
+    out = {}
+    for m, recs in per_method.items():
+        if m != bound:
+            pair = paired(recs, per_method[bound])
+            out[m] = {"scenes": pair["first_only"], "pairs": pair["pairs"]}
+    return out
+
+
 def _q_t(record: dict[str, Any]) -> float | None:
     q = (record.get("scores") or {}).get("q_t")
     return None if q is None else float(q)
@@ -515,8 +529,8 @@ def summarise(records: Sequence[dict[str, Any]], tasks: Sequence[str], methods: 
     included) over the scenes where both trials are valid, with its 95 % interval (Newcombe);
     ``action_search_minus_method``: the same for the learned action search against every other method that
     is not a diagnostic (empty when it was not evaluated); ``oracle_fraction``: the method's rate over the
-    Oracle's; ``gap``: :func:`gap_decomposition` (absent without the rows it needs); ``model_rating``:
-    :func:`model_rating`."""
+    Oracle's; ``beyond_oracle``: :func:`beyond_bound` against the Oracle; ``gap``:
+    :func:`gap_decomposition` (absent without the rows it needs); ``model_rating``: :func:`model_rating`."""
     groups: dict[tuple[str, str, str], list[dict[str, Any]]] = defaultdict(list)
     for r in records:
         groups[(r["task"], r["category"], r["method"])].append(r)
@@ -543,6 +557,7 @@ def summarise(records: Sequence[dict[str, Any]], tasks: Sequence[str], methods: 
                             for m, s in stats.items()}
                 subsets[sub] = {"methods": stats, "tognet_minus_method": diffs,
                                 "action_search_minus_method": search, "oracle_fraction": fraction,
+                                "beyond_oracle": beyond_bound(per_method, ORACLE),
                                 "model_rating": model_rating(per_method)}
                 gap = gap_decomposition(per_method, stats)
                 if gap is not None:
