@@ -14,12 +14,13 @@ from tognet.cli import app
 from tognet.evaluate import EvalConfig, EvalError, newcombe_paired, paired_difference, run_evaluation, wilson
 from tognet.jobs.workers import LocalExecutor
 from tognet.objects.record import load_catalog
-from tognet.planning import METHODS, OracleConfig, PlanConfig
+from tognet.planning import METHODS, BoundConfig, OracleConfig, PlanConfig
 from tognet.planning.method_names import DIAGNOSTIC_NAMES
 from tognet.sim import Simulator
 from tognet.tasks import TASK_NAMES
 
-CONFIG = EvalConfig(scenes_per_job=1, plan=PlanConfig(oracle=OracleConfig(grasps=2, seeds=1, max_trials=12)))
+CONFIG = EvalConfig(scenes_per_job=1, plan=PlanConfig(oracle=OracleConfig(grasps=2, seeds=1, max_trials=12),
+                                                      bound=BoundConfig(grasps=2, seeds=1, max_trials=16)))
 TASKS = list(TASK_NAMES)  # every registered task
 EPISODES = 2
 

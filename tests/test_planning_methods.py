@@ -6,12 +6,13 @@ import pytest
 from eval_testlib import tiny_models
 
 from tognet.objects import generate_set
-from tognet.planning import METHODS, OracleConfig, PlanConfig, check_methods, make_planner
+from tognet.planning import METHODS, BoundConfig, OracleConfig, PlanConfig, check_methods, make_planner
 from tognet.planning.method_names import DIAGNOSTIC_NAMES
 from tognet.sim import SimConfig, Simulator
 from tognet.tasks import TASK_NAMES, FailureReason
 
-FAST = PlanConfig(oracle=OracleConfig(grasps=2, seeds=1, max_trials=12))
+FAST = PlanConfig(oracle=OracleConfig(grasps=2, seeds=1, max_trials=12),
+                  bound=BoundConfig(grasps=2, seeds=1, max_trials=16))
 
 
 @pytest.fixture(scope="module")
@@ -106,7 +107,7 @@ def test_each_method_is_one_row_of_the_table_and_a_new_row_plans(models, objects
     assert NEEDS == {m.name: m.needs for m in METHOD_TABLE}
     assert [m.name for m in METHOD_TABLE if m.baseline] == [
         "Antipodal+Random", "Task_Agn+Random", "Task_Agn+Trained", "Task_Ori+Random"]
-    assert [m.name for m in METHOD_TABLE if m.uses_sim] == ["Oracle", *DIAGNOSTIC_NAMES]
+    assert [m.name for m in METHOD_TABLE if m.uses_sim] == ["Oracle", "Oracle+", *DIAGNOSTIC_NAMES]
     assert get_method("tog-net").kind == "ours" and get_method("Oracle").planner is not None
     with pytest.raises(ValueError, match="a grasp and an action policy, or a planner"):
         Method("half", "baseline", grasp=lambda i: CEMGrasp(i.config.policy, i.task_model))

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from tognet.evaluate.config import EvalConfig
-from tognet.planning.config import OracleConfig, PlanConfig
+from tognet.planning.config import BoundConfig, OracleConfig, PlanConfig
 
 #: Demo scale: scenes per (task, category) and test objects per category.
 DEMO_EPISODES = 20
@@ -18,7 +18,8 @@ DEMO_OBJECTS = 8
 
 def demo_config() -> EvalConfig:
     """The default settings with a cheaper Oracle search (6 grasps both ways round, at most 48 trials)."""
-    return EvalConfig(plan=PlanConfig(oracle=OracleConfig(grasps=6, seeds=2, max_trials=48)))
+    return EvalConfig(plan=PlanConfig(oracle=OracleConfig(grasps=6, seeds=2, max_trials=48),
+                                      bound=BoundConfig(grasps=8, seeds=2, max_trials=96)))
 
 
 def run_demo(out: str | Path = "runs/demo/evaluation", *, episodes: int = DEMO_EPISODES,

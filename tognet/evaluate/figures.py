@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from tognet.evaluate.config import EvalConfig
-from tognet.evaluate.kinds import GAP_ROWS, ORACLE, ORACLE_GRASP, ORACLE_MOTION, compared, kinds_of
+from tognet.evaluate.kinds import BOUND, GAP_ROWS, ORACLE, ORACLE_GRASP, ORACLE_MOTION, compared, kinds_of
 from tognet.evaluate.subsets import breakdown_title, headline, main_subset
 from tognet.io import atomic_path
 from tognet.jobs.output import JobOutput
@@ -29,11 +29,13 @@ COLOURS = {
     "TOG-Net": "#d94801",
     "TOG-Net+ActionSearch": "#6a3d9a",
     ORACLE: "#404040",
+    BOUND: "#000000",
     ORACLE_MOTION: "#fdd0a2",
     ORACLE_GRASP: "#bdbdbd",
 }
 #: (edge colour, hatch) of the bars that are not plain: the Oracle and the diagnostics.
-HATCHES = {ORACLE: ("black", "//"), ORACLE_MOTION: ("#404040", "//"), ORACLE_GRASP: ("#d94801", "..")}
+HATCHES = {ORACLE: ("black", "//"), BOUND: ("#808080", "xx"), ORACLE_MOTION: ("#404040", "//"),
+           ORACLE_GRASP: ("#d94801", "..")}
 
 
 def _plt() -> Any:

@@ -34,6 +34,7 @@ from tognet.evaluate.config import CATEGORIES, EvalConfig
 from tognet.evaluate.jobs import EvalJob, plan_eval_jobs, run_eval_job
 from tognet.evaluate.kinds import (
     ACTION_SEARCH,
+    BOUND,
     GAP_ROWS,
     ORACLE,
     ORACLE_GRASP,
@@ -398,7 +399,8 @@ def _json_default(x: Any) -> Any:
 # --- statistics of the records ------------------------------------------------------------------------
 def rate_stats(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
     """Episodes, valid trials, task and grasp successes with rates and 95 % Wilson intervals, failure
-    reasons (valid failed trials), mean planning and execution seconds."""
+    reasons (valid failed trials), mean planning and execution seconds, and for a search in the simulator
+    (the Oracle, Oracle+) its mean trials per scene."""
     valid = [r for r in records if r["valid"]]
     n = len(valid)
     k = sum(bool(r["task_success"]) for r in valid)
@@ -406,6 +408,7 @@ def rate_stats(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
     failures = Counter(r["failure"] for r in valid if not r["task_success"])
     plan = [r["timing"]["total"] for r in records if r.get("timing")]
     execute = [r["execute_seconds"] for r in records if r.get("execute_seconds") is not None]
+    searched = [r["search_trials"] for r in records if r.get("search_trials") is not None]
     return {
         "episodes": len(records), "valid": n, "invalid": len(records) - n,
         "successes": k, "rate": k / n if n else None, "ci": list(wilson(k, n)) if n else None,
@@ -414,6 +417,7 @@ def rate_stats(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
         "failures": dict(failures.most_common()),
         "plan_seconds": float(np.mean(plan)) if plan else None,
         "execute_seconds": float(np.mean(execute)) if execute else None,
+        "search_trials": float(np.mean(searched)) if searched else None,
     }
 
 
@@ -529,7 +533,8 @@ def summarise(records: Sequence[dict[str, Any]], tasks: Sequence[str], methods: 
     included) over the scenes where both trials are valid, with its 95 % interval (Newcombe);
     ``action_search_minus_method``: the same for the learned action search against every other method that
     is not a diagnostic (empty when it was not evaluated); ``oracle_fraction``: the method's rate over the
-    Oracle's; ``beyond_oracle``: :func:`beyond_bound` against the Oracle; ``gap``:
+    Oracle's; ``beyond_oracle``: :func:`beyond_bound` against the Oracle; with Oracle+ evaluated,
+    ``bound_fraction`` and ``beyond_bound``, the same against it (the stronger bound); ``gap``:
     :func:`gap_decomposition` (absent without the rows it needs); ``model_rating``: :func:`model_rating`."""
     groups: dict[tuple[str, str, str], list[dict[str, Any]]] = defaultdict(list)
     for r in records:
@@ -552,13 +557,14 @@ def summarise(records: Sequence[dict[str, Any]], tasks: Sequence[str], methods: 
                          if REFERENCE in methods and m != REFERENCE}
                 search = {m: paired(per_method[ACTION_SEARCH], per_method[m]) for m in main
                           if ACTION_SEARCH in methods and m != ACTION_SEARCH}
-                oracle = stats.get(ORACLE, {}).get("rate")
-                fraction = {m: (s["rate"] / oracle if oracle and s["rate"] is not None else None)
-                            for m, s in stats.items()}
                 subsets[sub] = {"methods": stats, "tognet_minus_method": diffs,
-                                "action_search_minus_method": search, "oracle_fraction": fraction,
+                                "action_search_minus_method": search,
+                                "oracle_fraction": _fractions(stats, ORACLE),
                                 "beyond_oracle": beyond_bound(per_method, ORACLE),
                                 "model_rating": model_rating(per_method)}
+                if BOUND in methods:
+                    subsets[sub].update(bound_fraction=_fractions(stats, BOUND),
+                                        beyond_bound=beyond_bound(per_method, BOUND))
                 gap = gap_decomposition(per_method, stats)
                 if gap is not None:
                     subsets[sub]["gap"] = gap
@@ -566,6 +572,12 @@ def summarise(records: Sequence[dict[str, Any]], tasks: Sequence[str], methods: 
         timing = {m: _timing([r for c in categories for r in groups[(task, c, m)]]) for m in methods}
         out["tasks"][task] = {"categories": tcats, "timing": timing}
     return out
+
+
+def _fractions(stats: dict[str, dict[str, Any]], bound: str) -> dict[str, float | None]:
+    """Each method's rate over the ``bound`` row's (None without it or where a rate is missing)."""
+    top = stats.get(bound, {}).get("rate")
+    return {m: (s["rate"] / top if top and s["rate"] is not None else None) for m, s in stats.items()}
 
 
 def _timing(records: Sequence[dict[str, Any]]) -> dict[str, float]:

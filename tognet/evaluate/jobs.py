@@ -140,6 +140,8 @@ def _run_eval_job(job: EvalJob) -> JobOutput:
                    "timing": plan.timing, "scores": plan.scores,
                    "search_trials": plan.info.get("search_trials"), "pose": _pose(sim),
                    "state_sha": state_digest(sim)}
+            if "source" in plan.info:  # Oracle+: which of its stages found the plan
+                rec["source"] = plan.info["source"]
             if "reach" in plan.info:  # with an arm: how far down the method's ranking its plan is
                 rec["reach"] = {k: plan.info["reach"].get(k) for k in ("rank", "dropped", "checked")}
             t0 = time.perf_counter()

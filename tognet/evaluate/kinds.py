@@ -21,6 +21,8 @@ Kind = Literal["baseline", "ours", "oracle", "diagnostic"]
 REFERENCE = "TOG-Net"
 ACTION_SEARCH = "TOG-Net+ActionSearch"
 ORACLE = "Oracle"
+#: The stronger bound (every method's plan tried, a wider search): what "share of the bound" is over.
+BOUND = "Oracle+"
 #: TOG-Net's grasp with the Oracle's motion: from TOG-Net's grasps, what a perfect motion achieves.
 ORACLE_MOTION = "TOG-Net grasp + Oracle motion"
 #: The Oracle's grasp with TOG-Net's motion: what TOG-Net's motion achieves from a perfect grasp.
@@ -35,7 +37,7 @@ SIM_NOTE = ("†: a diagnostic row; it uses the simulator's ground truth for one
 
 def method_kind(name: str) -> Kind:
     """The kind of the method called ``name`` (an unknown name is a baseline)."""
-    if name == ORACLE:
+    if name in (ORACLE, BOUND):
         return "oracle"
     if name in (REFERENCE, ACTION_SEARCH):
         return "ours"

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 from tognet.lazy_names import lazy_names
 
 if TYPE_CHECKING:
-    from tognet.planning.config import OracleConfig, PlanConfig
+    from tognet.planning.config import BoundConfig, OracleConfig, PlanConfig
     from tognet.planning.methods import (
         METHOD_TABLE,
         METHODS,
@@ -33,6 +33,7 @@ if TYPE_CHECKING:
     from tognet.planning.user import PlannedGrasp, UserPlan, UserPlanConfig, UserPlanner, plan_image
 
 _WHERE = {
+    "BoundConfig": "tognet.planning.config",
     "OracleConfig": "tognet.planning.config",
     "PlanConfig": "tognet.planning.config",
     "Plan": "tognet.planning.plan",
@@ -58,6 +59,7 @@ _WHERE = {
 __getattr__, __dir__ = lazy_names(__name__, _WHERE)
 
 __all__ = [
+    "BoundConfig",
     "METHOD_TABLE",
     "METHODS",
     "Method",

@@ -33,6 +33,29 @@ class OracleConfig(Config):
 
 
 @dataclass(frozen=True)
+class BoundConfig(Config):
+    """Oracle+, the stronger bound (simulator ground truth; never a deployable method): every method's own
+    plan tried in the simulator, then the Oracle's motion from those grasps, then a wider Oracle search,
+    then small moves of the best action, within one budget (:mod:`tognet.planning.bound`)."""
+
+    grasps: int = doc(16, "NMS modes of the antipodal candidates the wider Oracle search tries, each held "
+                      "both ways round.", ge=1)
+    seeds: int = doc(
+        3,
+        "Search trials per (grasp, action) pair, on execution-noise seeds the evaluation never uses; the "
+        "first pair that succeeds on all of them is taken at once, otherwise the one that won most.",
+        ge=1,
+    )
+    max_trials: int = doc(512, "Search trials per plan at most, over every stage.", ge=1)
+    alternatives: int = doc(
+        2, "The learned methods' next grasps (ranked their way, 3 cm apart) tried beside their plan.", ge=0
+    )
+    step: float = doc(0.01, "Stage 4: how far the best pair's action start is moved along x, y and z (m).",
+                      gt=0)
+    turn: float = doc(0.1, "Stage 4: how far the best pair's action is turned in yaw (rad).", gt=0)
+
+
+@dataclass(frozen=True)
 class ReachConfig(Config):
     """Planning for an arm (:mod:`tognet.planning.reach`): which of a planner's grasps an arm beside the
     table can carry out. Used only when an arm carries the hand (``SimConfig.robot`` not floating, or
@@ -78,6 +101,7 @@ class PlanConfig(Config):
         "fields are unused (a planner's action is the policy's mean: no noise).",
     )
     oracle: OracleConfig = doc(factory=OracleConfig, text="The Oracle's simulator search.")
+    bound: BoundConfig = doc(factory=BoundConfig, text="Oracle+'s search (the stronger bound).")
     reach: ReachConfig = doc(
         factory=ReachConfig, text="With an arm carrying the hand: what every planner checks it reaches."
     )

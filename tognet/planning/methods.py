@@ -16,6 +16,9 @@ TOG-Net+ActionSearch the best candidate by Q_G * max_a Q_T|G,a    CEM on Q_T|G,a
                      paper)                                       action_search)
 Oracle               simulator search: NMS modes both ways        hand-computed from the tool's pose in the
                      round, each tried in the simulator           hand (tognet.sim.oracle), best found
+Oracle+              every method's plan (and the learned ones'   theirs, then the Oracle's from their
+                     next grasps), then a wider Oracle search,    grasps, then the wider search's; best
+                     each tried in the simulator                  found (tognet.planning.bound)
 ===================  ===========================================  ==========================================
 
 Two diagnostic rows split the gap between TOG-Net and the Oracle into its grasp and its motion (they read
@@ -43,6 +46,7 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 from tognet.grasping.crops import resolve_crop
+from tognet.planning.bound import BoundPlanner
 from tognet.planning.config import PlanConfig
 from tognet.planning.method_names import DIAGNOSTIC_NAMES, METHOD_NAMES
 from tognet.planning.plan import Planner
@@ -163,6 +167,16 @@ def _oracle(i: MethodInputs) -> Planner:
     return oracle_for(i.sim, i.config, i.reach)
 
 
+def _bound(i: MethodInputs) -> Planner:
+    """Oracle+: the planners of every method a robot can run (best first, the learned ones' alternatives
+    tried too), with the models given, then the wider Oracle search."""
+    proposers = {name: make_planner(name, i.task, grasp_model=i.grasp_model, task_model=i.task_model,
+                                    config=i.config, search_model=i.search_model, reach=i.reach)
+                 for name in BEST_FIRST}
+    learned = tuple(m.name for m in METHOD_TABLE if m.kind == "ours")
+    return BoundPlanner(i.sim, i.config, i.reach, proposers, learned)  # type: ignore[arg-type]
+
+
 def _oracle_grasp(i: MethodInputs) -> GraspPolicy:
     return OracleGrasp(oracle_for(i.sim, i.config, i.reach))
 
@@ -185,6 +199,7 @@ METHOD_TABLE: tuple[Method, ...] = (
     Method("TOG-Net", "ours", ("task",), _Q_T, grasp=_cem_q_t, action=_policy_mean),
     Method("TOG-Net+ActionSearch", "ours", ("search",), _SEARCH, grasp=_search_grasp, action=_search_action),
     Method("Oracle", "oracle", (), _SEEDS, planner=_oracle),
+    Method("Oracle+", "oracle", ("grasp", "task", "search"), _SEEDS, planner=_bound),
     Method("TOG-Net grasp + Oracle motion", "diagnostic", ("task",), _Q_T, grasp=_cem_q_t,
            action=_oracle_motion),
     Method("Oracle grasp + TOG-Net motion", "diagnostic", ("task",), _SEEDS, grasp=_oracle_grasp,

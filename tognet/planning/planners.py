@@ -267,6 +267,27 @@ class OracleSearch:
         self.trials += 1
         return self.sim.execute(grasp, action, self.seed)
 
+    def try_pair(self, grasp: Grasp, action: Any) -> tuple[int, int]:
+        """(successes, valid trials) of one (grasp, action) on ``oracle.seeds`` search seeds, within the
+        budget; stops at the first failure (a pair that failed once cannot be the sure one) and where the
+        grasp or action is out of the gripper's reach."""
+        oc = self.config.oracle
+        wins = tries = 0
+        for _ in range(oc.seeds):
+            if self.trials >= oc.max_trials:
+                break
+            try:
+                r = self._trial(grasp, action)
+            except ValueError:
+                break
+            if not r.valid:
+                continue
+            tries += 1
+            wins += int(r.task_success)
+            if not r.task_success:
+                break
+        return wins, tries
+
     def best_action(self, grasp_arr: NDArray[np.float64], stop_at_sure: bool = True
                     ) -> tuple[float, int, NDArray[np.float64]] | None:
         """For one grasp: a probe trial lifts the tool to see how it hangs in the hand, then each of
@@ -287,20 +308,7 @@ class OracleSearch:
             return None
         best: tuple[float, int, NDArray[np.float64]] | None = None
         for action in task_actions(self.sim, grasp, in_hand=probe.info["in_hand"]):
-            wins = tries = 0
-            for _ in range(oc.seeds):
-                if self.trials >= oc.max_trials:
-                    break
-                try:
-                    r = self._trial(grasp, action)
-                except ValueError:
-                    break
-                if not r.valid:
-                    continue
-                tries += 1
-                wins += int(r.task_success)
-                if not r.task_success:
-                    break  # a pair that failed once cannot be the sure one: try the next
+            wins, tries = self.try_pair(grasp, action)
             if tries:
                 key = (wins / oc.seeds, wins)
                 if best is None or key > (best[0], best[1]):

@@ -1,0 +1,112 @@
+"""Oracle+, the stronger bound (issue 34): it tries the very plans the other methods execute, stays within
+its budget, puts the scene back, and the evaluation reports every share and "beyond" count against it."""
+
+import numpy as np
+import pytest
+from eval_testlib import tiny_models
+
+from tognet.evaluate import summarise
+from tognet.objects import generate_set
+from tognet.planning import BoundConfig, OracleConfig, PlanConfig, make_planner
+from tognet.planning.bound import BoundPlanner, _Best
+from tognet.planning.methods import BEST_FIRST
+from tognet.sim import SimConfig, Simulator
+
+
+@pytest.fixture(scope="module")
+def models(tmp_path_factory):
+    from tognet.jobs.models import load_model
+
+    paths = tiny_models(tmp_path_factory.mktemp("models"), search=True)
+    return {name: load_model(str(p)) for name, p in paths.items()}
+
+
+@pytest.fixture(scope="module")
+def sim(tmp_path_factory):
+    obj = generate_set("primitive", "test", 1, tmp_path_factory.mktemp("objects"))[0]
+    return Simulator(SimConfig(), "hammering", obj)
+
+
+def _planner(method, sim, models, config):
+    return make_planner(method, sim.task, grasp_model=models["grasping"], task_model=models["hammering"],
+                        config=config, sim=sim, search_model=models["hammering_search"])
+
+
+def test_the_bound_proposes_the_very_plan_each_method_executes(sim, models):
+    config = PlanConfig(bound=BoundConfig(alternatives=1))
+    obs = sim.reset(3)
+    bound = _planner("Oracle+", sim, models, config)
+    assert isinstance(bound, BoundPlanner)
+    proposed = {source: (g, a) for source, g, a in bound.proposals(obs, np.random.default_rng(7))}
+    for method in BEST_FIRST:  # every method a robot can run, with the evaluation's generator state
+        plan = _planner(method, sim, models, config).plan(obs, np.random.default_rng(7))
+        np.testing.assert_array_equal(proposed[method][0], plan.grasp, err_msg=method)
+        np.testing.assert_array_equal(proposed[method][1], plan.action, err_msg=method)
+    learned = {"TOG-Net", "TOG-Net+ActionSearch"}
+    extra = {s for s in proposed if s not in BEST_FIRST}
+    assert extra <= {f"{m} #2" for m in learned} and extra, extra  # the learned ones' next grasps too
+
+
+def test_the_bound_keeps_its_budget_and_puts_the_scene_back(sim, models):
+    obs = sim.reset(5)
+    settled = sim.save_state()
+    one = PlanConfig(bound=BoundConfig(seeds=1, max_trials=1))
+    plan = _planner("Oracle+", sim, models, one).plan(obs, np.random.default_rng(1))
+    first = _planner(BEST_FIRST[0], sim, models, one).plan(obs, np.random.default_rng(1))
+    assert plan.info["search_trials"] == 1 and plan.info["source"] == BEST_FIRST[0]
+    np.testing.assert_array_equal(plan.grasp, first.grasp)  # one trial: the first method's plan, tried
+    np.testing.assert_array_equal(plan.action, first.action)
+    some = PlanConfig(oracle=OracleConfig(grasps=2, seeds=1, max_trials=12),
+                      bound=BoundConfig(grasps=3, seeds=2, max_trials=40))
+    plan = _planner("Oracle+", sim, models, some).plan(obs, np.random.default_rng(1))
+    assert 1 <= plan.info["search_trials"] <= 40 + 8 * 2  # the refinement may finish its last pair
+    assert plan.info["source"]
+    assert 0.0 <= plan.scores["choice"] <= 1.0
+    np.testing.assert_array_equal(sim.save_state(), settled)
+    assert sim.task.action_low.shape == plan.action.shape
+    again = _planner("Oracle+", sim, models, some).plan(obs, np.random.default_rng(1))
+    np.testing.assert_array_equal(plan.grasp, again.grasp)  # reproducible from the generator
+    np.testing.assert_array_equal(plan.action, again.action)
+
+
+def test_the_refinement_moves_the_action_a_step_and_keeps_the_better_pair(sim, models):
+    obs = sim.reset(5)
+    config = PlanConfig(bound=BoundConfig(seeds=2, max_trials=100, step=0.01, turn=0.1))
+    bound = _planner("Oracle+", sim, models, config)
+    plan = _planner("TOG-Net", sim, models, config).plan(obs, np.random.default_rng(2))
+    best = _Best()
+    best.offer(1, 2, plan.grasp, plan.action, "TOG-Net")
+    used = bound._refine(best, 0)
+    assert 1 <= used <= 16  # 8 moves, 2 seeds each at most
+    moved = np.abs(best.action - plan.action)
+    assert best.wins >= 1 and np.all(moved[:3] <= 0.01 + 1e-12) and moved[3] <= 0.1 + 1e-12
+    if best.source != "TOG-Net":  # a move that won more replaced the pair
+        assert best.source == "TOG-Net, refined" and best.wins == 2 and np.count_nonzero(moved) == 1
+
+
+def _record(method, scene, ok):
+    return {"task": "hammering", "category": "pg-primitive", "object_id": "o", "scene_seed": scene,
+            "method": method, "valid": True, "grasp_success": ok, "task_success": ok,
+            "failure": "none" if ok else "task_failed", "timing": {"total": 0.1}, "execute_seconds": 0.1,
+            "search_trials": {"Oracle": 10, "Oracle+": 30}.get(method), "scores": {}}
+
+
+def test_shares_and_beyond_counts_are_taken_against_the_bound_with_the_oracle_kept_beside():
+    from tognet.evaluate.report import oracle_table
+
+    wins = {"TOG-Net": {0, 1, 9}, "Oracle": {0, 1, 2, 3}, "Oracle+": {0, 1, 2, 3, 4, 5, 6, 7}}
+    methods = list(wins)
+    records = [_record(m, s, s in w) for m, w in wins.items() for s in range(10)]
+    sub = summarise(records, ["hammering"], methods, ["pg-primitive"])["tasks"]["hammering"]
+    stats = sub["categories"]["pg-primitive"]["all"]
+    assert stats["bound_fraction"]["TOG-Net"] == pytest.approx(3 / 8)
+    assert stats["oracle_fraction"]["TOG-Net"] == pytest.approx(3 / 4)
+    assert stats["beyond_bound"]["TOG-Net"] == {"scenes": 1, "pairs": 10}  # scene 9
+    assert stats["beyond_bound"]["Oracle"] == {"scenes": 0, "pairs": 10}
+    assert stats["methods"]["Oracle+"]["search_trials"] == 30  # the bound's cost per scene
+    rows = {r[0]: r[1] for r in oracle_table({"methods": methods, "tasks": {"hammering": sub}},
+                                             "hammering", "all").rows}
+    assert rows == {"TOG-Net": "37 (75); 1 of 10", "Oracle": "50; 0 of 10"}
+    without = summarise([r for r in records if r["method"] != "Oracle+"], ["hammering"], methods[:2],
+                        ["pg-primitive"])["tasks"]["hammering"]["categories"]["pg-primitive"]["all"]
+    assert "beyond_bound" not in without and without["beyond_oracle"]["TOG-Net"]["scenes"] == 1
