@@ -222,6 +222,10 @@ def test_learning_curve_from_the_rounds_summaries(tmp_path):
     assert [s["episodes"] for s in got] == [2000, 1000, 1000]  # round 10 after round 2, not before
     path = learning_curve(tmp_path, ["hammering", "sweeping"], tmp_path / "lc.png")
     assert path is not None and path.stat().st_size > 1000
+    levels = {"hammering": [("Oracle+, test scenes", 0.8), ("TOG-Net, test scenes", 0.3)]}
+    drawn = learning_curve(tmp_path, ["hammering"], tmp_path / "lc-bound.png", levels)
+    plain = learning_curve(tmp_path, ["hammering"], tmp_path / "lc-plain.png")
+    assert drawn.read_bytes() != plain.read_bytes()  # the bound's and the method's levels are drawn
     (tmp_path / "sweeping" / "round1").mkdir(parents=True)
     (tmp_path / "sweeping" / "round1" / "summary.json").write_text(json.dumps(summary(500, 0.2)))
     assert learning_curve(tmp_path, ["sweeping"], tmp_path / "none.png") is None  # no greedy trials

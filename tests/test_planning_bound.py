@@ -107,6 +107,10 @@ def test_shares_and_beyond_counts_are_taken_against_the_bound_with_the_oracle_ke
     rows = {r[0]: r[1] for r in oracle_table({"methods": methods, "tasks": {"hammering": sub}},
                                              "hammering", "all").rows}
     assert rows == {"TOG-Net": "37 (75); 1 of 10", "Oracle": "50; 0 of 10"}
+    from tognet.evaluate.report import _levels
+
+    levels = _levels({"methods": methods, "tasks": {"hammering": sub}})  # for the learning curves
+    assert levels == {"hammering": [("Oracle+, test scenes", 0.8), ("TOG-Net, test scenes", 0.3)]}
     without = summarise([r for r in records if r["method"] != "Oracle+"], ["hammering"], methods[:2],
                         ["pg-primitive"])["tasks"]["hammering"]["categories"]["pg-primitive"]["all"]
     assert "beyond_bound" not in without and without["beyond_oracle"]["TOG-Net"]["scenes"] == 1

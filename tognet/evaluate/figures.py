@@ -373,10 +373,14 @@ def round_summaries(run_dir: Path, task: str) -> list[dict[str, Any]]:
     return [json.loads(found[k].read_text()) for k in sorted(found)]
 
 
-def learning_curve(run_dir: Path, tasks: Sequence[str], path: Path) -> Path | None:
+def learning_curve(run_dir: Path, tasks: Sequence[str], path: Path,
+                   levels: dict[str, list[tuple[str, float]]] | None = None) -> Path | None:
     """Per task, the greedy policy's task success in each round against the trials collected before it
     (the data its model was trained on), beside the round's overall task success: whether more data is
-    still paying. From the rounds' collection summaries; None when no round has greedy trials."""
+    still paying. From the rounds' collection summaries; None when no round has greedy trials.
+
+    ``levels``: per task, (label, rate) drawn across the panel, e.g. the bound's and the evaluated
+    method's rates on the test scenes: how far the curve is from what is possible."""
     series = {}
     for task in tasks:
         seen, points = 0, []
@@ -399,6 +403,9 @@ def learning_curve(run_dir: Path, tasks: Sequence[str], path: Path) -> Path | No
                 label="greedy trials")
         ax.plot(x, [100 * a if a is not None else np.nan for _, _, a in points], "s--", color="#888888",
                 label="all trials of the round")
+        for (label, rate), style in zip((levels or {}).get(task, []), (":", "-."), strict=False):
+            ax.axhline(100 * rate, color="black", linestyle=style, linewidth=1,
+                       label=f"{label} {100 * rate:.0f} %")
         ax.set_xlabel("trials collected before the round (thousands)")
         ax.set_ylabel("task success (%)")
         ax.set_title(f"{task}: learning curve")

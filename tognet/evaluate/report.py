@@ -450,13 +450,27 @@ def write_report(out: Path, results: dict[str, Any], records: Sequence[dict[str,
     run = Path(run_dir) if run_dir else next((r for t in tasks if (r := figures.find_run_dir(models.get(t)))),
                                              None)
     pictures["curves"] = figures.training_curves(run, tasks, fig_dir / "training_curves.png") if run else None
-    pictures["learning"] = figures.learning_curve(run, tasks, fig_dir / "learning_curve.png") if run else None
+    pictures["learning"] = figures.learning_curve(run, tasks, fig_dir / "learning_curve.png",
+                                                  _levels(results)) if run else None
     gifs, gif_note = _animations(out, results, records, objects, config, executor, log) if animations else \
         ({t: [] for t in tasks}, "Animations not made (--no-animations).")
     html_path, md_path = out / "report.html", out / "report.md"
     atomic_write_text(html_path, _html(results, pictures, gifs, gif_note, run))
     atomic_write_text(md_path, _markdown(results, pictures, gifs, gif_note, run, out))
     return html_path, md_path
+
+
+def _levels(results: dict[str, Any]) -> dict[str, list[tuple[str, float]]]:
+    """Per task, the bound's rate (Oracle+, else the Oracle) and the best learned method's on all the test
+    scenes, for the learning curves."""
+    out: dict[str, list[tuple[str, float]]] = {}
+    for task, tres in results["tasks"].items():
+        cats = tres["categories"]
+        stats = cats["all" if "all" in cats else next(iter(cats))][main_subset(task)]["methods"]
+        rows = [m for m in (BOUND, ORACLE) if m in stats][:1] + \
+            [m for m in (ACTION_SEARCH, REFERENCE) if m in stats][:1]
+        out[task] = [(f"{m}, test scenes", stats[m]["rate"]) for m in rows if stats[m]["rate"] is not None]
+    return out
 
 
 def _animations(out: Path, results: dict[str, Any], records: Sequence[dict[str, Any]],
