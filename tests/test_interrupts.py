@@ -56,6 +56,19 @@ def _alive_children(pid: int) -> list[int]:
     return found
 
 
+def _communicate_or_dump(proc: subprocess.Popen, timeout: float) -> tuple[str, str]:
+    """The command's output; if it has not ended in ``timeout`` s, fail with where its threads are
+    (SIGUSR1 makes tognet print its stacks) and end it."""
+    try:
+        return proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        os.kill(proc.pid, signal.SIGUSR1)
+        time.sleep(2)
+        os.killpg(proc.pid, signal.SIGKILL)
+        out, err = proc.communicate(timeout=30)
+        pytest.fail(f"still running {timeout:.0f} s after the signal; its stacks:\n{err}")
+
+
 @pytest.mark.parametrize("how", ["SIGINT to the group (Ctrl-C)", "SIGTERM to the process"])
 def test_an_interrupted_collection_says_how_to_continue_and_continuing_loses_nothing(setup, how):
     root = setup
@@ -73,7 +86,7 @@ def test_an_interrupted_collection_says_how_to_continue_and_continuing_loses_not
         os.killpg(proc.pid, signal.SIGINT)
     else:
         os.kill(proc.pid, signal.SIGTERM)
-    _, err = proc.communicate(timeout=120)
+    _, err = _communicate_or_dump(proc, 120)
     assert proc.returncode == (130 if "SIGINT" in how else 143), err
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("interrupted (SIG"), err  # no traceback, no warning

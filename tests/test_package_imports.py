@@ -229,7 +229,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("envs", "demo"),
     ("collect", "evaluate", "viz"),
     ("serve",),
-    ("cli",),
+    ("cli", "entry"),
 )
 LAYER = {f"tognet.{name}": i for i, names in enumerate(LAYERS) for name in names}
 

@@ -58,10 +58,18 @@ def main(argv: list[str] | None = None) -> None:
     A usage error (an unknown option, a missing argument, a value out of its range) is one line too,
     ``error: <what> (see: tognet <command> --help)``, exit status 2, like the commands' own errors.
     Ctrl-C or SIGTERM stops the command and prints one line: what was kept and the command that
-    continues (exit status 130 / 143)."""
-    from tognet.cli.interrupt import Stopped, exit_status, interrupted_line, on_sigterm_stop
+    continues (exit status 130 / 143). SIGUSR1 prints every thread's stack to stderr and goes on (to see
+    where a command that seems stuck is)."""
+    from tognet.cli.interrupt import (
+        Stopped,
+        exit_status,
+        interrupted_line,
+        on_sigterm_stop,
+        stacks_on_sigusr1,
+    )
 
     on_sigterm_stop()
+    stacks_on_sigusr1()
     try:
         code = app(args=argv, prog_name="tognet", standalone_mode=False)
     except _CLICK_EXCEPTION as exc:

@@ -38,6 +38,14 @@ def on_sigterm_stop() -> None:
     signal.signal(signal.SIGTERM, _raise_terminated)
 
 
+def stacks_on_sigusr1() -> None:
+    """``kill -USR1 <pid>`` prints where each thread of the command is, and the command goes on."""
+    import faulthandler
+
+    if hasattr(signal, "SIGUSR1"):
+        faulthandler.register(signal.SIGUSR1, all_threads=True, chain=False)
+
+
 def _option(args: Sequence[str], name: str) -> str | None:
     for i, arg in enumerate(args):
         if arg == name and i + 1 < len(args):

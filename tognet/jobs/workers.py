@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import signal
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -48,12 +49,13 @@ def default_workers() -> int:
 def _exit_with_parent(parent: int, every: float = 1.0) -> None:
     """Worker initialiser: a thread that ends this worker once its coordinator is gone (killed, even with
     SIGKILL), so no orphan keeps a core busy; a spawned worker otherwise waits on its queue for ever.
-    Ctrl-C is the coordinator's to handle (it stops the workers): the worker ignores SIGINT."""
-    import signal
+    Ctrl-C is the coordinator's to handle (it stops the workers): the worker ignores SIGINT. SIGTERM
+    (how the pool ends a worker) is unblocked again: the worker was started with both held back."""
     import threading
     import time
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
 
     def watch() -> None:
         while os.getppid() == parent:
@@ -94,14 +96,34 @@ class LocalExecutor:
             self._stop_workers()
             raise
 
-    def _stop_workers(self) -> None:
-        """End the pool's processes now (their jobs' results would be thrown away)."""
+    def _stop_workers(self, grace: float = 5.0) -> None:
+        """End the pool's processes now (their jobs' results would be thrown away). The waits are
+        bounded: a pool whose internal threads are stuck (a queue left half-written by a killed worker)
+        must not keep an interrupted command from ending."""
         if self._pool is None:
             return
-        for proc in list(getattr(self._pool, "_processes", {}).values()):
+        pool, self._pool = self._pool, None
+        procs = list(getattr(pool, "_processes", {}).values())
+        for proc in procs:
             proc.kill()
-        self._pool.shutdown(wait=True, cancel_futures=True)
-        self._pool = None
+        pool.shutdown(wait=False, cancel_futures=True)
+        for proc in procs:
+            proc.join(grace)
+        manager = getattr(pool, "_executor_manager_thread", None)
+        if manager is not None:
+            manager.join(grace)
+
+    def _submit(self, fn: JobFn, job: Any) -> Future[JobOutput]:
+        """Submit with Ctrl-C and SIGTERM held back: a worker the pool starts here inherits them blocked
+        (it never dies of a Ctrl-C half-way through its start), and a signal that arrives meanwhile is
+        raised in the coordinator just after."""
+        assert self._pool is not None
+        held = {signal.SIGINT, signal.SIGTERM}
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+        try:
+            return self._pool.submit(fn, job)
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
     def _run(self, pending: list[Any], running: dict[Future[JobOutput], Any], on_result: OnResult,
              log: Callable[[str], None], fn: JobFn) -> None:
@@ -110,7 +132,7 @@ class LocalExecutor:
         while pending or running:
             while pending and len(running) < 2 * self.workers:
                 job = pending.pop()
-                running[self._pool.submit(fn, job)] = job
+                running[self._submit(fn, job)] = job
             done, _ = wait(list(running), return_when=FIRST_COMPLETED)
             broken: list[Any] = []
             for future in done:

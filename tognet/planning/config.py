@@ -42,11 +42,15 @@ class BoundConfig(Config):
                       "both ways round.", ge=1)
     seeds: int = doc(
         3,
-        "Search trials per (grasp, action) pair, on execution-noise seeds the evaluation never uses; the "
-        "first pair that succeeds on all of them is taken at once, otherwise the one that won most.",
+        "Search trials per (grasp, action) pair, on execution-noise seeds the evaluation never uses (a "
+        "pair that fails once is not tried further).",
         ge=1,
     )
-    max_trials: int = doc(512, "Search trials per plan at most, over every stage.", ge=1)
+    confirm: int = doc(
+        5, "More trials for a pair that won all its seeds' trials; a pair that wins these too is taken.", ge=0
+    )
+    max_trials: int = doc(512, "Search trials per plan at most, over every stage (the Oracle's included).",
+                          ge=1)
     alternatives: int = doc(
         2, "The learned methods' next grasps (ranked their way, 3 cm apart) tried beside their plan.", ge=0
     )

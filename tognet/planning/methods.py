@@ -168,13 +168,14 @@ def _oracle(i: MethodInputs) -> Planner:
 
 
 def _bound(i: MethodInputs) -> Planner:
-    """Oracle+: the planners of every method a robot can run (best first, the learned ones' alternatives
-    tried too), with the models given, then the wider Oracle search."""
+    """Oracle+: the Oracle row's planner (its plan tried first) and the planners of every method a robot
+    can run (best first, the learned ones' alternatives tried too), with the models given."""
     proposers = {name: make_planner(name, i.task, grasp_model=i.grasp_model, task_model=i.task_model,
                                     config=i.config, search_model=i.search_model, reach=i.reach)
                  for name in BEST_FIRST}
     learned = tuple(m.name for m in METHOD_TABLE if m.kind == "ours")
-    return BoundPlanner(i.sim, i.config, i.reach, proposers, learned)  # type: ignore[arg-type]
+    return BoundPlanner(i.sim, i.config, i.reach, proposers, learned,  # type: ignore[arg-type]
+                        oracle_for(i.sim, i.config, i.reach))
 
 
 def _oracle_grasp(i: MethodInputs) -> GraspPolicy:
