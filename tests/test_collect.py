@@ -292,8 +292,11 @@ def test_a_round_whose_first_jobs_all_fail_stops_and_writes_nothing_for_them(obj
     with pytest.raises(RoundError, match="all failed.*bad.pt"):
         collect_round("sweeping", 1, objects, RoundConfig(episodes=9), SMALL, tmp_path / "d",
                       grasp_model=bad, executor=LocalExecutor(0), progress=False, log=lambda _m: None)
+    assert not list((tmp_path / "d").iterdir())  # no empty dataset left to refuse a fixed run on
+    collect_round("sweeping", 1, objects, RoundConfig(episodes=3), SMALL, tmp_path / "d",
+                  executor=LocalExecutor(0), progress=False, log=lambda _m: None)  # the fix: no model
     manifest = json.loads((tmp_path / "d" / "manifest.json").read_text())
-    assert manifest["shards"] == [] and not list((tmp_path / "d").glob("shard-*"))
+    assert len(manifest["shards"]) >= 1
 
 
 def test_a_rounds_policies_are_built_from_its_policy_name_in_one_place(objects):

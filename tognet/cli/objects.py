@@ -202,7 +202,8 @@ def stats_cmd(
     records = load_catalog(set_dir)
     if not records:
         raise ValueError(f"{set_dir}: the catalog lists no objects")
-    stats = [object_stats(r, opening) for r in tqdm(records, desc="measure", unit="obj", leave=False)]
+    with tqdm(records, desc="measure", unit="obj", leave=False) as bar:  # cleared before an error line
+        stats = [object_stats(r, opening) for r in bar]
     for line in summary_lines(stats, opening):
         typer.echo(line)
 

@@ -79,6 +79,9 @@ def collect_round(
     results = _Results(f"{task} round {round_index}", store, bar, min(FAILURES_BEFORE_ABORT, len(todo)), log)
     try:
         executor.run(todo, results, log, fn=run_job)
+    except RoundError:
+        store.discard_if_unused()  # stopped before its first job: a fresh --out is left as it was
+        raise
     finally:
         if bar is not None:
             bar.close()

@@ -50,6 +50,7 @@ class RoundStore:
         self.meta = {"task": task, **dict(meta)}
         self.flush_seconds = flush_seconds
         manifest = read_manifest(self.folder)
+        self.new = manifest is None  # this store wrote the manifest (see discard_if_unused)
         if manifest is None:
             manifest = new_manifest(task)
             manifest["collection"] = self.meta
@@ -69,6 +70,7 @@ class RoundStore:
         self._entries = {job_of(e["file"]): e for e in manifest["shards"]}
         self._recover()
         self._dirty = True
+        self._discarded = False
         self._last_flush = 0.0
         self.flush(force=True)
 
@@ -106,6 +108,24 @@ class RoundStore:
                                               cols["failure"]).items() if k != "episodes"},
             }
 
+    def discard_if_unused(self) -> bool:
+        """Remove the manifest and configs this store wrote when no job was written into it (a round that
+        stopped before its first job then leaves no empty dataset behind, which a run with other settings
+        would be refused on); whether it did. The store takes no writes afterwards."""
+        if not self.new or self._entries:
+            return False
+        for entry in self.manifest.get("configs", []):
+            (self.folder / entry["file"]).unlink(missing_ok=True)
+        (self.folder / MANIFEST).unlink(missing_ok=True)
+        try:
+            (self.folder / "configs").rmdir()
+        except OSError:  # not empty: files of someone else's
+            pass
+        self.new = False
+        self._dirty = False
+        self._discarded = True
+        return True
+
     @property
     def done(self) -> set[int]:
         """Indices of the jobs whose shard is written."""
@@ -117,6 +137,8 @@ class RoundStore:
         (timings, counters, an error) goes into its manifest entry only, so shards stay deterministic."""
         if job in self._entries:
             raise DatasetError(f"{self.folder}: job {job} is already written")
+        if self._discarded:
+            raise DatasetError(f"{self.folder}: this round's store was discarded")
         checked = check_columns(columns) if columns else _empty_columns()
         meta = {**self.meta, "job": int(job)}
         entry = write_shard(self.folder / SHARD_NAME.format(job), checked, meta)
@@ -130,7 +152,7 @@ class RoundStore:
     def flush(self, force: bool = False) -> None:
         """Rewrite the manifest (at most every ``flush_seconds`` unless ``force``)."""
         now = time.monotonic()
-        if self._dirty and (force or now - self._last_flush >= self.flush_seconds):
+        if self._dirty and not self._discarded and (force or now - self._last_flush >= self.flush_seconds):
             self.manifest["shards"] = [self._entries[j] for j in sorted(self._entries)]
             write_manifest(self.folder, self.manifest)
             self._dirty = False

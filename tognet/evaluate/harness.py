@@ -46,7 +46,7 @@ from tognet.evaluate.kinds import (
     label,
 )
 from tognet.evaluate.stats import paired_difference, wilson
-from tognet.evaluate.store import EvalStore
+from tognet.evaluate.store import EvalStore, EvalStoreError, read_json_object
 from tognet.evaluate.subsets import main_subset, subsets_of
 from tognet.io import atomic_write_text, file_digest
 from tognet.jobs.output import JobOutput
@@ -172,7 +172,11 @@ def _check_out(out: Path, settings: dict[str, Any], resume: bool) -> None:
         if not resume:
             raise EvalError(f"{out}: already holds an evaluation; pass --resume to continue it or another "
                             "--out")
-        old = _by_content(json.loads(saved.read_text()))
+        try:
+            old = _by_content(read_json_object(saved, "the settings the evaluation was started with"))
+        except EvalStoreError as exc:
+            raise EvalError(f"{exc}, so it cannot be resumed; restore the file, or start again in another "
+                            "--out") from None
         new = _by_content(json.loads(json.dumps(settings)))
         if old != new:
             diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))

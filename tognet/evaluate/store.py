@@ -31,6 +31,20 @@ class EvalStoreError(TognetError):
     """An evaluation folder holds results of other settings."""
 
 
+def read_json_object(path: Path, what: str) -> dict[str, Any]:
+    """The JSON object in ``path``; EvalStoreError naming the file (and ``what`` it holds) when it is not
+    readable text, not JSON or not an object."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError:
+        raise EvalStoreError(f"{path}: not a text file (binary?); it should hold {what}") from None
+    except json.JSONDecodeError as exc:
+        raise EvalStoreError(f"{path}: damaged, not valid JSON ({exc}); it should hold {what}") from None
+    if not isinstance(data, dict):
+        raise EvalStoreError(f"{path}: damaged, a JSON {type(data).__name__} where {what} should be")
+    return data
+
+
 def _jsonable(meta: Mapping[str, Any]) -> Any:
     return json.loads(json.dumps(dict(meta)))
 
@@ -47,11 +61,11 @@ class EvalStore:
         path = self.folder / META
         if path.is_file():
             try:
-                old = json.loads(path.read_text())
-            except json.JSONDecodeError:
-                old = None
+                old = read_json_object(path, "the settings of the jobs in this folder")
+            except EvalStoreError as exc:
+                raise EvalStoreError(f"{exc}; restore it, or delete it to have it written again (each job "
+                                     "file is checked against the settings on its own)") from None
             if old != self.meta:
-                old = old or {}
                 keys = sorted(k for k in set(old) | set(self.meta) if old.get(k) != self.meta.get(k))
                 raise EvalStoreError(f"{path}: this folder holds an evaluation with other settings (differs "
                                      f"in {', '.join(keys)}); use another --out")
@@ -63,6 +77,8 @@ class EvalStore:
             job = int(file.stem.removeprefix("job-"))
             try:
                 payload = json.loads(file.read_text())
+                if not isinstance(payload, dict):
+                    raise ValueError(f"a JSON {type(payload).__name__}, not a job's record")
                 if payload.get("meta") != self.meta or payload.get("job") != job:
                     raise ValueError("written with other settings")
                 records = payload["records"]

@@ -90,6 +90,13 @@ class ObjectRecord:
             raise CatalogError(f"object {self.object_id}: {path} is not a closed surface (truncated?)")
         return mesh
 
+    def check_meshes(self) -> None:
+        """Read every mesh of the object (collision pieces, visual mesh): a damaged, empty or truncated one
+        raises CatalogError naming its file (what MuJoCo would otherwise load silently, or fail on without
+        saying which file)."""
+        for name in [*self.collision_meshes, self.visual_mesh]:
+            self.load_mesh(name)
+
     @property
     def file_names(self) -> list[str]:
         """Every file of the object's folder that building its world reads (collision pieces, the visual

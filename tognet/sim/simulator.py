@@ -77,6 +77,7 @@ class Simulator(Trial):
         self.task: Task | None = get_task(task, config.task_config(task)) if task in TASK_NAMES else None
         self._props: TaskProps = get_props(self.task)
         self.obj = obj
+        obj.check_meshes()  # a damaged mesh file is named (MuJoCo would take a truncated one silently)
         props_mjcf = self._props.mjcf(config, GROUP_PROPS)
         try:
             self.model = mujoco.MjModel.from_xml_string(world_xml(config, obj, props_mjcf))
