@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import shlex
 import signal
+import sys
 from collections.abc import Sequence
 from types import FrameType
 
@@ -42,8 +43,13 @@ def stacks_on_sigusr1() -> None:
     """``kill -USR1 <pid>`` prints where each thread of the command is, and the command goes on."""
     import faulthandler
 
-    if hasattr(signal, "SIGUSR1"):
-        faulthandler.register(signal.SIGUSR1, all_threads=True, chain=False)
+    stream = sys.__stderr__
+    if not hasattr(signal, "SIGUSR1") or stream is None:
+        return
+    try:
+        faulthandler.register(signal.SIGUSR1, file=stream, all_threads=True, chain=False)
+    except (OSError, ValueError, AttributeError):  # no real file descriptor (embedded, captured)
+        return
 
 
 def _option(args: Sequence[str], name: str) -> str | None:
