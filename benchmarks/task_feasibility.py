@@ -1,6 +1,7 @@
 """Can generated objects do the tasks at all? Oracle search and round-1 success rates per object.
 
     .venv/bin/python benchmarks/task_feasibility.py --objects DIR [DIR ...] [--budget 300] [--modes 4]
+    .venv/bin/python benchmarks/task_feasibility.py --objects DIR --candidates-only [--max-objects 300]
 
 For each object (one scene per task): antipodal candidates on the depth image, NMS modes, a few modes
 picked at random; for each mode BOTH jaw orientations (phi, phi + pi) are tried with the oracle's
@@ -9,6 +10,9 @@ the task's action box (what round-1 self-supervision collects: an NMS mode, a ra
 random action). Prints per kind and task: the fraction of objects with at least one success (oracle),
 the oracle success rate per (grasp, action), and the round-1 rate (random action), over valid trials.
 Stops taking new objects when the time budget (CPU seconds, per task) runs out.
+``--candidates-only`` runs no trials: it counts the objects on whose depth image (one scene of the first
+task) the sampler finds antipodal candidates, in all and per part variant (a generator profile's flat,
+thin or tall parts, recorded in each object's extra["variants"]).
 """
 
 from __future__ import annotations
@@ -84,6 +88,22 @@ def run(task: str, records: list, cfg: SimConfig, modes: int, randoms: int, budg
     return {"objects": per_obj, "cpu": time.process_time() - cpu0}
 
 
+def candidate_counts(records: list, cfg: SimConfig, task: str) -> dict[str, list[int]]:
+    """Per group (all, and each part variant ``A:name`` / ``B:name``): [objects with candidates, objects]."""
+    groups: dict[str, list[int]] = {"all": [0, 0]}
+    for k, rec in enumerate(records):
+        obs = Simulator(cfg, task, rec).reset(k)
+        cands = sample_antipodal(prepare_depth(obs.depth, obs.camera), None, AntipodalConfig(),
+                                 np.random.default_rng(k))
+        names = ["all"] + [f"{part}:{name or 'plain'}" for part, name in
+                           sorted(rec.extra.get("variants", {}).items())]
+        for name in names:
+            count = groups.setdefault(name, [0, 0])
+            count[0] += int(len(cands) > 0)
+            count[1] += 1
+    return groups
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--objects", nargs="+", required=True, help="object set folders (with catalog)")
@@ -99,10 +119,17 @@ def main() -> None:
     p.add_argument("--max-objects", type=int, default=30, help="objects per set at most")
     p.add_argument("--verbose", action="store_true", help="one line per object")
     p.add_argument("--config", type=Path, default=None, help="SimConfig JSON (default: built-in)")
+    p.add_argument("--candidates-only", action="store_true",
+                   help="only count objects with antipodal candidates (no trials)")
     args = p.parse_args()
     cfg = SimConfig.load(args.config) if args.config else SimConfig()
     for folder in args.objects:
         records = load_catalog(Path(folder))[: args.max_objects]
+        if args.candidates_only:
+            groups = candidate_counts(records, cfg, args.tasks[0])
+            text = ", ".join(f"{name} {n}/{total}" for name, (n, total) in sorted(groups.items()))
+            print(f"{Path(folder).name}: objects with antipodal candidates: {text}", flush=True)
+            continue
         for task in args.tasks:
             res = run(task, records, cfg, args.modes, args.randoms, args.budget)
             objs = res["objects"]

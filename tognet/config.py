@@ -44,12 +44,18 @@ class ConfigRangeError(ConfigError):
 
 def doc(default: Any = dataclasses.MISSING, text: str = "", *, factory: Any = dataclasses.MISSING,
         gt: float | None = None, ge: float | None = None, lt: float | None = None,
-        le: float | None = None) -> Any:
+        le: float | None = None, omit_default: bool = False) -> Any:
     """A dataclass field with a docstring (``text``), kept in the field's metadata, and optional bounds
-    on its value (``gt`` > , ``ge`` >=, ``lt`` <, ``le`` <=; each element of a tuple or list)."""
+    on its value (``gt`` > , ``ge`` >=, ``lt`` <, ``le`` <=; each element of a tuple or list).
+
+    ``omit_default``: the field is left out of the saved JSON while it holds its default (a field added
+    to a config whose files must stay byte for byte the same; loading a file without it gives the
+    default)."""
     if not text:
         raise TypeError("every config field needs a docstring")
     metadata: dict[str, Any] = {"doc": text}
+    if omit_default:
+        metadata["omit_default"] = True
     bounds = {k: v for k, v in (("gt", gt), ("ge", ge), ("lt", lt), ("le", le)) if v is not None}
     if bounds:
         metadata["bounds"] = bounds
@@ -200,7 +206,8 @@ def _from_dict(cls: type, data: dict[str, Any], where: str) -> Any:
 
 def _to_jsonable(value: Any) -> Any:
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {f.name: _to_jsonable(getattr(value, f.name)) for f in dataclasses.fields(value)}
+        return {f.name: _to_jsonable(getattr(value, f.name)) for f in dataclasses.fields(value)
+                if not (f.metadata.get("omit_default") and getattr(value, f.name) == _default(f))}
     if isinstance(value, tuple | list):
         return [_to_jsonable(v) for v in value]
     if isinstance(value, dict):
@@ -208,6 +215,13 @@ def _to_jsonable(value: Any) -> Any:
     if hasattr(value, "tolist"):
         return value.tolist()
     return value
+
+
+def _default(f: dataclasses.Field) -> Any:
+    """A field's default value (from its factory if it has one)."""
+    if f.default_factory is not dataclasses.MISSING:  # type: ignore[misc]
+        return f.default_factory()  # type: ignore[misc]
+    return f.default
 
 
 class Config:

@@ -129,8 +129,8 @@ def pipeline_cmd(
     task: str = typer.Option(..., "--task", help=TASKS_HELP),
     preset: str = typer.Option("quick", "--preset", help="ci, quick, quick-search (the learned action "
                                "search's models), medium (quick-search with twice the objects and six "
-                               "rounds; one task in under 3 h on 2 cores), paper, or a PipelineConfig JSON "
-                               "file."),
+                               "rounds; one task in under 3 h on 2 cores), medium-wide (medium on the "
+                               "wide generator's objects), paper, or a PipelineConfig JSON file."),
     out: Path = typer.Option(..., "--out", help="Run folder (objects, data, models, summary)."),
     workers: int | None = typer.Option(None, "--workers", min=0, help=WORKERS_HELP),
     ray: bool = typer.Option(False, "--ray", help=RAY_HELP),

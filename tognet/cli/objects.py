@@ -57,23 +57,24 @@ def generate(
     out: Path = typer.Option(..., "--out", help="Set folder; its catalog.json keeps objects already there."),
     start: int = typer.Option(0, "--start", min=0, help="First object index (to extend a set)."),
     workers: int = typer.Option(1, "--workers", min=1, help="Processes generating in parallel."),
-    config: Path | None = typer.Option(
+    config: str | None = typer.Option(
         None,
         "--config",
-        help="A GeneratorConfig JSON (e.g. another set's generator_config.json) instead of the defaults.",
+        help="A generator profile (wide: flat, thin, tall and short parts, lower friction, steel) or a "
+        "GeneratorConfig JSON (e.g. another set's generator_config.json) instead of the defaults.",
     ),
 ) -> None:
     """Generate objects (deterministic: the same kind/split/index gives the same files anywhere).
 
     Writes one folder per object (``<kind>-<split>-<index>/``: object.xml, visual.obj, collision_*.obj)
     and the set's catalog.json, catalog.csv and generator_config.json into --out."""
-    from tognet.objects.generate import GeneratorConfig, generate_set, realistic_count
+    from tognet.objects.generate import generate_set, load_generator_config, realistic_count
 
     if kind == Kind.realistic and split == Split.train:
         raise ValueError("--kind realistic is a test set only (the realistic models are never trained "
                          "on); pass --split test")
     out_folder(out)
-    cfg = GeneratorConfig.load(config) if config is not None else None
+    cfg = load_generator_config(config) if config is not None else None
     if kind == Kind.realistic and start + count > realistic_count():
         raise ValueError(f"--count {count} --start {start}: there are {realistic_count()} realistic models "
                          f"(use --count {max(realistic_count() - start, 0)} or less)")

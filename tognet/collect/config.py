@@ -18,6 +18,7 @@ from tognet.grasping.antipodal import AntipodalConfig
 from tognet.grasping.crops import CropConfig
 from tognet.io import short_digest
 from tognet.model.config import TrainConfig
+from tognet.objects.generate import GeneratorConfig
 from tognet.policies.config import PolicyConfig
 from tognet.sim.config import SimConfig
 
@@ -116,6 +117,12 @@ class PipelineConfig(Config):
         None, "Processes generating objects (None: the collection's worker count).",
         ge=0,
     )
+    generator: GeneratorConfig | None = doc(
+        None,
+        "The generator of the training objects (e.g. the ``wide`` profile, tognet/objects/profiles; fields "
+        "left out take their defaults); None: the default generator, the one the test sets use.",
+        omit_default=True,
+    )
 
     def check(self) -> None:
         """Object counts of known kinds, at least one object, and task rounds that can run in order (the
@@ -148,8 +155,9 @@ class PipelineConfig(Config):
 
 #: The shipped presets, smallest first: ``ci`` (the tests' toy loop), ``quick`` (the paper's method, ~1 h on
 #: 2 cores for two tasks), ``quick-search`` (the learned action search's recipe), ``medium`` (that recipe
-#: with twice the objects and six rounds: one task fits in 3 hours on 2 cores) and ``paper``.
-PRESETS = ("ci", "quick", "quick-search", "medium", "paper")
+#: with twice the objects and six rounds: one task fits in 3 hours on 2 cores), ``medium-wide`` (``medium``
+#: on training objects of the ``wide`` generator profile) and ``paper``.
+PRESETS = ("ci", "quick", "quick-search", "medium", "medium-wide", "paper")
 #: Where the presets' files are (shipped inside the package).
 PRESETS_DIR = Path(__file__).resolve().parent / "presets"
 

@@ -75,7 +75,7 @@ def make_objects(preset: PipelineConfig, out: Path, workers: int, log: Callable[
         if len(have) < count:
             log(f"generating {count - len(have)} {kind} training objects into {folder}")
             generate_set(kind, "train", count - len(have), folder, start=len(have), progress=progress,
-                         workers=max(1, preset.object_workers or workers))
+                         workers=max(1, preset.object_workers or workers), config=preset.generator)
             have = load_catalog(folder)
         records.extend(sorted(have, key=lambda r: r.object_id)[:count])
     if not records:

@@ -15,6 +15,11 @@ or L arm metal with some probability, the two X parts independently, within the 
 Part B is listed first in the mass model, so the volume where the parts overlap is B's (the head block
 is one material, the handle ends where it enters the head).
 
+Part variants (:class:`PartVariant`, ``ShapeRanges.variants``, none by default) let some parts leave the
+rule's size ranges: with a variant's probability a part A or B is redrawn as, e.g., a flat blade (3-15 mm
+high, its width still the rule's), a thin shaft or a tall head. With no variants no extra random number is
+drawn, so the default generator's objects are unchanged.
+
 Both parts rest with their lowest points at the same height so a tool lies flat on a table; the object
 frame is then moved to the centre of the bounding box. The visual is the boolean union of the two
 parts (watertight, used for mass properties); the collision pieces are the two convex parts.
@@ -23,16 +28,44 @@ parts (watertight, used for mass properties); the collision pieces are the two c
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import trimesh
 
-from tognet.config import Config, doc
+from tognet.config import Config, ConfigRangeError, doc
 from tognet.objects.assemble import MeshError
 from tognet.objects.decompose import capped_hull, thin_vertices
 
 RULES = ("T", "L", "X")
+
+
+@dataclass(frozen=True)
+class PartVariant(Config):
+    """Another shape for part A or B, drawn with some probability instead of the rule's sizes.
+
+    A field left None keeps the rule's draw; a given range replaces it (uniform, metres). The variants of
+    one part are exclusive: one uniform number picks at most one of them (their probabilities add up).
+    """
+
+    name: str = doc("variant", "Short name, recorded in each object's extra['variants'].")
+    part: Literal["A", "B"] = doc("B", "Which part: A (handle / long edge) or B (head, arm, crossing part).")
+    probability: float = doc(0.0, "Chance that the part takes this variant.", ge=0, le=1)
+    rules: tuple[str, ...] = doc(RULES, "Shape rules the variant applies to (T, L, X).")
+    length: tuple[float, float] | None = doc(None, "Length range (m); None keeps the rule's.", gt=0)
+    width: tuple[float, float] | None = doc(None, "Width range (m); None keeps the rule's.", gt=0)
+    height: tuple[float, float] | None = doc(None, "Height range (m); None keeps the rule's.", gt=0)
+
+    def check(self) -> None:
+        """Known rules, and ranges whose low end is not above the high end."""
+        unknown = [r for r in self.rules if r not in RULES]
+        if unknown:
+            raise ConfigRangeError("PartVariant", "rules", f"has unknown rules {unknown} (T, L, X)")
+        for name in ("length", "width", "height"):
+            bounds = getattr(self, name)
+            if bounds is not None and bounds[0] > bounds[1]:
+                raise ConfigRangeError("PartVariant", name,
+                                       f"must be (low, high) with low <= high, got {bounds}")
 
 
 @dataclass(frozen=True)
@@ -73,6 +106,21 @@ class ShapeRanges(Config):
     )
     friction: tuple[float, float] = doc((0.5, 1.2), "Sliding friction coefficient range, uniform.")
     rule_weights: tuple[float, float, float] = doc((1.0, 1.0, 1.0), "Relative frequency of rules T, L, X.")
+    variants: tuple[PartVariant, ...] = doc(
+        (),
+        "Other shapes some parts take instead of the sizes above (flat blades, thin shafts, tall heads); "
+        "none by default (then no extra random number is drawn: the default objects stay the same; "
+        "left out of a saved config while empty).",
+        omit_default=True,
+    )
+
+    def check(self) -> None:
+        """The variants of each part leave room for the plain part: probabilities add up to 1 at most."""
+        for part in ("A", "B"):
+            total = sum(v.probability for v in self.variants if v.part == part)
+            if total > 1 + 1e-9:
+                raise ConfigRangeError("ShapeRanges", "variants",
+                                       f"probabilities of part {part} add up to {total:g}, more than 1")
 
 
 @dataclass
@@ -91,6 +139,35 @@ def _u(rng: np.random.Generator, bounds: tuple[float, float]) -> float:
     return float(rng.uniform(bounds[0], bounds[1]))
 
 
+def vary_part(
+    rng: np.random.Generator, ranges: ShapeRanges, part: str, rule: str, sizes: tuple[float, float, float],
+    info: dict[str, Any],
+) -> tuple[float, float, float]:
+    """``sizes`` (length, width, height) of ``part``, redrawn by one of its variants or kept.
+
+    Draws nothing when no variant of ``part`` applies to ``rule``; otherwise one uniform number picks a
+    variant (or none), whose given ranges are drawn in the order length, width, height. The chosen
+    variant's name (or "") goes into ``info["variants"][part]``.
+    """
+    options = [v for v in ranges.variants if v.part == part and rule in v.rules and v.probability > 0]
+    if not options:
+        return sizes
+    u = float(rng.uniform())
+    chosen = None
+    total = 0.0
+    for variant in options:
+        total += variant.probability
+        if u < total:
+            chosen = variant
+            break
+    info.setdefault("variants", {})[part] = "" if chosen is None else chosen.name
+    if chosen is None:
+        return sizes
+    drawn = [sizes[i] if bounds is None else _u(rng, bounds)
+             for i, bounds in enumerate((chosen.length, chosen.width, chosen.height))]
+    return drawn[0], drawn[1], drawn[2]
+
+
 def sample_rule(rng: np.random.Generator, ranges: ShapeRanges) -> str:
     """One of T, L, X with the configured weights."""
     weights = np.asarray(ranges.rule_weights, dtype=np.float64)
@@ -99,29 +176,35 @@ def sample_rule(rng: np.random.Generator, ranges: ShapeRanges) -> str:
 
 def sample_layout(rng: np.random.Generator, ranges: ShapeRanges, rule: str) -> Layout:
     """Draw the parts' extents and B's placement for ``rule``."""
+    if rule not in RULES:
+        raise ValueError(f"unknown shape rule {rule!r}; expected one of {', '.join(RULES)}")
+    info: dict[str, Any] = {}
     la, wa, ha = _u(rng, ranges.handle_length), _u(rng, ranges.handle_width), _u(rng, ranges.handle_height)
+    la, wa, ha = vary_part(rng, ranges, "A", rule, (la, wa, ha), info)
     if rule == "T":
         lb, wb = _u(rng, ranges.t_head_length), _u(rng, ranges.t_head_width)
         hb = _u(rng, ranges.t_head_height)
+        lb, wb, hb = vary_part(rng, ranges, "B", rule, (lb, wb, hb), info)
         yaw = np.pi / 2 + float(rng.uniform(-0.12, 0.12))
         overlap = float(rng.uniform(0.75, 1.0)) * wb  # how much of the head's width sits over the handle
         centre = (la / 2 + wb / 2 - overlap, float(rng.uniform(-0.1, 0.1)) * lb)
     elif rule == "L":
         lb, wb, hb = _u(rng, ranges.l_arm_length), _u(rng, ranges.l_arm_width), _u(rng, ranges.l_arm_height)
+        lb, wb, hb = vary_part(rng, ranges, "B", rule, (lb, wb, hb), info)
         lb = max(lb, wa + 0.02)
         yaw = np.pi / 2 + float(rng.uniform(-0.35, 0.0))
         side = 1.0 if rng.random() < 0.5 else -1.0
         centre = (la / 2 - wb / 2 * float(rng.uniform(0.8, 1.0)), side * (lb / 2 - wa / 2))
         yaw *= side
-    elif rule == "X":
+    else:  # X
         lb = la * _u(rng, ranges.x_cross_length_ratio)
         wb, hb = _u(rng, ranges.x_cross_width), _u(rng, ranges.x_cross_height)
+        lb, wb, hb = vary_part(rng, ranges, "B", rule, (lb, wb, hb), info)
         lb = max(lb, wa + 0.04)
         yaw = float(rng.uniform(np.radians(35), np.radians(90))) * (1.0 if rng.random() < 0.5 else -1.0)
         centre = (float(rng.uniform(-0.3, 0.3)) * la, float(rng.uniform(-0.15, 0.15)) * lb)
-    else:
-        raise ValueError(f"unknown shape rule {rule!r}; expected one of {', '.join(RULES)}")
-    return Layout(rule=rule, extents_a=(la, wa, ha), extents_b=(lb, wb, hb), yaw_b=yaw, centre_b=centre)
+    return Layout(rule=rule, extents_a=(la, wa, ha), extents_b=(lb, wb, hb), yaw_b=yaw, centre_b=centre,
+                  info=info)
 
 
 def fit_extents(mesh: trimesh.Trimesh, extents: tuple[float, float, float]) -> trimesh.Trimesh:

@@ -9,6 +9,11 @@
   generating indices that exist again rewrites them identically.
 - ``GENERATOR_VERSION`` (saved in the catalog's meta) changes whenever the same (kind, split, index)
   and config would give different files; adding objects to a set made by another version is refused.
+- Generator profiles (:data:`PROFILES`, files in ``tognet/objects/profiles``) are GeneratorConfigs found
+  by name (:func:`load_generator_config`, ``objects generate --config NAME``): ``wide`` widens the
+  training objects towards real tools (flat blades and handles 3-15 mm high, thin shafts 3-12 mm, tall
+  heads to 10 cm, lengths from 8 cm, friction from 0.35, metal to 8000 kg/m^3, masses 20 g-1.5 kg). It
+  is opt-in: the default config, and so the README's test sets, stay byte for byte the same.
 - The realistic set is a fixed list of models (``tognet.objects.realistic``); it is a test set only
   (the paper never trains on it), index i is model i, and asking for more objects than there are
   models is an error that names the limit (the models have real-world sizes, so they are not rescaled).
@@ -28,7 +33,7 @@ import numpy as np
 import trimesh
 from tqdm import tqdm
 
-from tognet.config import Config, doc
+from tognet.config import Config, ConfigError, doc
 from tognet.objects.assemble import MeshError, assemble_object, exclusive_solids
 from tognet.objects.complex import ComplexConfig, make_complex
 from tognet.objects.compose import part_densities
@@ -51,6 +56,26 @@ class GeneratorConfig(Config):
 
     primitive: PrimitiveConfig = doc(factory=PrimitiveConfig, text="PG-Primitive settings.")
     complex: ComplexConfig = doc(factory=ComplexConfig, text="PG-Complex settings.")
+
+
+#: The shipped generator profiles: ``wide`` (tognet/objects/profiles/wide.json; see the module docstring).
+PROFILES = ("wide",)
+#: Where the profiles' files are (shipped inside the package).
+PROFILES_DIR = Path(__file__).resolve().parent / "profiles"
+
+
+def load_generator_config(name_or_path: str | Path) -> GeneratorConfig:
+    """A generator profile by name (one of :data:`PROFILES`, or ``default``) or a GeneratorConfig file."""
+    text = str(name_or_path)
+    if text == "default":
+        return GeneratorConfig()
+    if text in PROFILES:
+        return GeneratorConfig.load(PROFILES_DIR / f"{text}.json")
+    path = Path(text)
+    if not path.exists() and path.suffix.lower() != ".json" and "/" not in text:
+        raise ConfigError(f"unknown generator profile {text!r}: use default, {', '.join(PROFILES)} or a "
+                          "GeneratorConfig JSON file's path")
+    return GeneratorConfig.load(path)
 
 
 def object_id(kind: str, split: str, index: int) -> str:
