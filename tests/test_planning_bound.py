@@ -120,3 +120,25 @@ def test_shares_and_beyond_counts_are_taken_against_the_bound_with_the_oracle_ke
     without = summarise([r for r in records if r["method"] != "Oracle+"], ["hammering"], methods[:2],
                         ["pg-primitive"])["tasks"]["hammering"]["categories"]["pg-primitive"]["all"]
     assert "beyond_bound" not in without and without["beyond_oracle"]["TOG-Net"]["scenes"] == 1
+
+
+def test_a_tie_between_sure_pairs_goes_to_the_one_that_wins_more_further_trials(sim, models):
+    config = PlanConfig(bound=BoundConfig(seeds=1, confirm=0, tiebreak=4, max_trials=200))
+    bound = _planner("Oracle+", sim, models, config)
+    oracle = _planner("Oracle", sim, models, config)
+    for scene in range(6):  # a scene where the Oracle finds a working pair
+        obs = sim.reset(scene)
+        plan = oracle.plan(obs, np.random.default_rng(0))
+        if plan.info["found"]:
+            break
+    assert plan.info["found"], "the Oracle found no working pair on six scenes"
+    judge = _Judge(sim, bound.config)
+    hopeless = np.array(sim.task.action_low, np.float64)  # far from the tool's working motion
+    judge.sure = [(plan.grasp, hopeless, "hopeless"), (plan.grasp, plan.action, "Oracle")]
+    judge.best.offer(1, plan.grasp, hopeless, "hopeless")
+    before = judge.trials
+    judge.settle()
+    assert judge.trials - before == 2 * 4  # every tiebreak trial counted, failures too
+    assert judge.tiebreaks[0] < judge.tiebreaks[1], judge.tiebreaks
+    assert judge.best.source == "Oracle"
+    np.testing.assert_array_equal(judge.best.action, plan.action)

@@ -15,12 +15,14 @@ execution-noise seeds the evaluation never uses (1000 + k, as the Oracle's):
 4. around the best pair so far, when it is not sure: its action moved by ``BoundConfig.step`` along each
    of the action's position axes and by ``BoundConfig.turn`` in yaw, both ways (within the task's box).
 
-A pair that wins on all ``BoundConfig.seeds`` trials is confirmed on ``BoundConfig.confirm`` more; one that
-wins on all of them ends the search (a marginal plan seldom passes them all by luck); otherwise the pair
-that won most is the plan. Its ``info["source"]`` says which stage found it. The search's seeds are never
-the evaluation's: a method's plan that wins on the evaluation's seed and loses on the search seeds (a plan
-at the edge of the execution noise) can still be one the bound does not take; the evaluation counts such
-scenes (``beyond_bound``).
+A pair that wins on all ``BoundConfig.seeds`` trials is confirmed on ``BoundConfig.confirm`` more. Stage 1
+is always tried whole; where several of its pairs won every trial, each gets ``BoundConfig.tiebreak`` more
+(a plan that wins 7 of 7 can still be one that wins 3 in 4: the first one sure is not the most robust) and
+the one that wins most is the plan. In the later stages the first pair that wins every trial ends the
+search; otherwise the pair that won most is the plan. Its ``info["source"]`` says which stage found it.
+The search's seeds are never the evaluation's: a method's plan that wins on the evaluation's seed and
+loses on the search seeds (a plan at the edge of the execution noise) can still be one the bound does not
+take; the evaluation counts such scenes (``beyond_bound``).
 """
 
 from __future__ import annotations
@@ -68,8 +70,11 @@ class _Judge:
         self.search = OracleSearch(sim, config)
         self.seeds, self.confirm = config.bound.seeds, config.bound.confirm
         self.budget = config.bound.max_trials
+        self.tiebreak = config.bound.tiebreak
         self.extra = 0  # trials run by searches of their own (the Oracle's)
         self.best = _Best()
+        self.sure: list[tuple[NDArray[np.float64], NDArray[np.float64], str]] = []
+        self.tiebreaks: list[int] = []
 
     @property
     def trials(self) -> int:
@@ -87,9 +92,9 @@ class _Judge:
         self.search.config = dataclasses.replace(self.search.config, oracle=dataclasses.replace(
             self.search.config.oracle, seeds=seeds, max_trials=self.budget - self.extra))
 
-    def _run(self, grasp: Grasp, action: Any, n: int) -> int:
+    def _run(self, grasp: Grasp, action: Any, n: int, stop_at_failure: bool = True) -> int:
         self._limit(n)
-        return self.search.try_pair(grasp, action)[0]
+        return self.search.try_pair(grasp, action, stop_at_failure)[0]
 
     def best_action(self, grasp: NDArray[np.float64]) -> tuple[float, int, NDArray[np.float64]] | None:
         """The Oracle's action search from ``grasp``, ``seeds`` trials per action, within the budget."""
@@ -103,7 +108,19 @@ class _Judge:
         wins = self._run(g, action, self.seeds) if prior is None else prior
         if wins >= self.seeds:
             wins = self.seeds + self._run(g, action, self.confirm)
+        if wins >= self.seeds + self.confirm:
+            self.sure.append((np.asarray(grasp, np.float64), np.asarray(action, np.float64), source))
         self.best.offer(wins, grasp, action, source)
+
+    def settle(self) -> None:
+        """Where several pairs won every trial, ``tiebreak`` more trials each (all counted): the pair that
+        wins most of them (the first on a tie) is the best."""
+        if len(self.sure) < 2 or self.tiebreak == 0:
+            return
+        self.tiebreaks = [self._run(Grasp.from_array(g), a, self.tiebreak, stop_at_failure=False)
+                          for g, a, _ in self.sure]
+        grasp, action, source = self.sure[int(np.argmax(self.tiebreaks))]
+        self.best.grasp, self.best.action, self.best.source = grasp, action, source
 
 
 class BoundPlanner:
@@ -137,9 +154,11 @@ class BoundPlanner:
         grasps: list[tuple[str, NDArray[np.float64]]] = []
         for source, grasp, action in self.proposals(observation, rng_start, judge):
             grasps.append((source, grasp))
-            judge.judge(grasp, action, source)
-            if judge.done:
-                return self._plan(judge, len(grasps), t0)
+            if judge.left() > 0:
+                judge.judge(grasp, action, source)
+        if judge.done:
+            judge.settle()
+            return self._plan(judge, len(grasps), t0)
         for source, grasp in _distinct(grasps):
             found = judge.best_action(grasp)
             if found is not None:
@@ -222,7 +241,7 @@ class BoundPlanner:
         if best.grasp is None or best.action is None:
             raise PlanningError("Oracle+ found no grasp to try on the depth image")
         info: dict[str, Any] = {"search_trials": judge.trials, "source": best.source, "proposals": proposed,
-                                "found": best.wins > 0}
+                                "found": best.wins > 0, "tiebreak": judge.tiebreaks}
         if reach is not None:
             info["reach"] = reach
         timing = {"search": time.perf_counter() - t0, "total": time.perf_counter() - t0}

@@ -49,6 +49,12 @@ class BoundConfig(Config):
     confirm: int = doc(
         5, "More trials for a pair that won all its seeds' trials; a pair that wins these too is taken.", ge=0
     )
+    tiebreak: int = doc(
+        10,
+        "When several of stage 1's plans win all their seeds' and confirmation trials, each is tried on this "
+        "many more (every trial counted, not stopping at a failure) and the one that wins most is taken.",
+        ge=0,
+    )
     max_trials: int = doc(512, "Search trials per plan at most, over every stage (the Oracle's included).",
                           ge=1)
     alternatives: int = doc(

@@ -267,10 +267,10 @@ class OracleSearch:
         self.trials += 1
         return self.sim.execute(grasp, action, self.seed)
 
-    def try_pair(self, grasp: Grasp, action: Any) -> tuple[int, int]:
+    def try_pair(self, grasp: Grasp, action: Any, stop_at_failure: bool = True) -> tuple[int, int]:
         """(successes, valid trials) of one (grasp, action) on ``oracle.seeds`` search seeds, within the
-        budget; stops at the first failure (a pair that failed once cannot be the sure one) and where the
-        grasp or action is out of the gripper's reach."""
+        budget; stops at the first failure (a pair that failed once cannot be the sure one; unless
+        ``stop_at_failure`` is false) and where the grasp or action is out of the gripper's reach."""
         oc = self.config.oracle
         wins = tries = 0
         for _ in range(oc.seeds):
@@ -284,7 +284,7 @@ class OracleSearch:
                 continue
             tries += 1
             wins += int(r.task_success)
-            if not r.task_success:
+            if stop_at_failure and not r.task_success:
                 break
         return wins, tries
 
