@@ -85,3 +85,18 @@ def test_a_corrupt_shard_is_collected_again_on_rerun(tmp_path):
     assert again.done == {0, 2}
     assert (tmp_path / "round" / "shard-000001.npz.corrupt").is_file()
     assert not (tmp_path / "round" / "shard-000001.npz").exists()
+
+
+@pytest.mark.parametrize("name", ["grasping", "hammering_search"])
+def test_a_copy_of_a_shipped_model_with_flipped_bytes_is_refused_by_name(name, tmp_path):
+    from tognet.models import MODELS_DIR
+
+    copy = tmp_path / f"{name}.pt"
+    shutil.copyfile(MODELS_DIR / f"{name}.pt", copy)
+    good = CliRunner().invoke(app, ["model", "info", str(copy)])
+    assert good.exit_code == 0 and "content matches the digest written into it" in good.output, good.output
+    _flip(copy, at=0.5, n=64)  # inside the tensors: torch itself reads such a file without a word
+    bad = CliRunner().invoke(app, ["model", "info", str(copy)])
+    assert bad.exit_code != 0, bad.output
+    assert str(copy) in bad.output and "digest" in bad.output, bad.output
+    assert "Traceback" not in bad.output

@@ -50,6 +50,14 @@ def train_cmd(
                f"model {result.best_path}")
 
 
+#: How ``model info`` words the way a checkpoint's bytes were checked on reading.
+VERIFIED = {
+    "digest": "content matches the digest written into it",
+    "shipped": "a shipped model: its bytes match the sha256 of its tognet/models/*.json",
+    "none": "not checked: written before checkpoints carried a digest (retrain or re-export to add one)",
+}
+
+
 @user_errors
 def info_cmd(
     checkpoint: Path = typer.Argument(..., help="A checkpoint file (best.pt or last.pt)."),
@@ -70,6 +78,7 @@ def info_cmd(
         f"format       {desc['format']} v{desc['format_version']}, created {desc.get('created')}",
         f"code         tognet {code.get('tognet')} commit {code.get('git_commit')} torch {code.get('torch')}",
         f"task         {desc.get('task')}",
+        f"verified     {VERIFIED.get(desc.get('verified'), desc.get('verified'))}",
         f"epoch        {desc.get('epoch')} (best {best.get('epoch')}, {best.get('monitor')} loss "
         f"{best.get('loss')}); resumable: {desc.get('resumable')}",
         f"parameters   {desc.get('parameters')}",

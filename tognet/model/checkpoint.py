@@ -105,21 +105,20 @@ def content_digest(payload: dict[str, Any]) -> str:
 
 
 def _verify(path: Path, payload: dict[str, Any]) -> str:
-    """How the checkpoint's bytes were checked ("digest", "shipped"; "none" for one written before
-    checkpoints carried a digest); CheckpointError when they do not match."""
+    """How the checkpoint's bytes were checked ("digest"; "shipped": a model in tognet/models, its file's
+    sha256 against its .json as well as its digest; "none" for one written before checkpoints carried a
+    digest); CheckpointError when they do not match."""
     recorded = payload.get("digest")
-    if recorded is not None:
-        if content_digest(payload) != recorded:
-            raise CheckpointError(f"{path}: its content does not match the digest written into it (corrupt, "
-                                  "or edited?); use another copy or retrain")
-        return "digest"
+    if recorded is not None and content_digest(payload) != recorded:
+        raise CheckpointError(f"{path}: its content does not match the digest written into it (corrupt, "
+                              "or edited?); use another copy or retrain")
     shipped = _shipped_digest(path)
     if shipped is not None:
         if sha256_file(path) != shipped:
             raise CheckpointError(f"{path}: a shipped model whose bytes do not match the sha256 in "
                                   f"{path.with_suffix('.json').name} (corrupt?); reinstall tognet")
         return "shipped"
-    return "none"
+    return "none" if recorded is None else "digest"
 
 
 def _shipped_digest(path: Path) -> str | None:
