@@ -391,6 +391,7 @@ CASES: dict[str, Case] = {
     "train-data-empty-dir": Case("train --data @adir --task sweeping --out @out", "adir"),
     "train-data-bad-manifest": Case("train --data @bad_manifest --task sweeping --out @out", "manifest"),
     "train-task-mismatch": Case("train --data @data --task hammering --out @out", "sweeping"),
+    "train-data-twice": Case("train --data @data --data @data --task sweeping --out @out", "twice"),
     "train-task-unknown": Case("train --data @data --task juggling --out @out", "juggling"),
     "train-out-file": Case(f"{T} --out @afile.txt", "not a folder"),
     "train-out-under-file": Case(f"{T} --out @afile.txt/t", "is a file, not a folder"),

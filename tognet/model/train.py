@@ -223,6 +223,17 @@ def plot_curves(history: Sequence[dict[str, Any]], path: Path) -> Path:
     return path
 
 
+def _distinct_dirs(data_dirs: Sequence[str | Path]) -> None:
+    """TrainingError when one dataset folder is given twice (its episodes would count double)."""
+    seen: dict[Path, str | Path] = {}
+    for d in data_dirs:
+        key = Path(d).resolve()
+        if key in seen:
+            raise TrainingError(f"--data {d} is the same folder as --data {seen[key]}: its episodes would be "
+                                "trained on twice; give each dataset folder once")
+        seen[key] = d
+
+
 def train(
     data_dirs: Sequence[str | Path],
     task: str,
@@ -244,6 +255,7 @@ def train(
 
     torch's thread count and deterministic-algorithms setting are changed while training and restored
     afterwards."""
+    _distinct_dirs(data_dirs)
     saved = (torch.get_num_threads(), torch.are_deterministic_algorithms_enabled(),
              torch.is_deterministic_algorithms_warn_only_enabled())
     try:
