@@ -178,6 +178,10 @@ def ws(tmp_path_factory):
     config("sim_size.json", {"camera": {"width": 0}})
     config("sim_gravity.json", {"physics": {"gravity": -9.81}})
     config("sim_typo.json", {"physics": {"timestpe": 0.002}})
+    config("gen_variant.json", {"primitive": {"ranges": {"variants": [{"name": "x", "part": "C",
+                                                                        "probability": 0.5}]}}})
+    config("gen_variant_sum.json", {"primitive": {"ranges": {"variants": [
+        {"name": "a", "part": "B", "probability": 0.7}, {"name": "b", "part": "B", "probability": 0.6}]}}})
     config("train_lr.json", {"lr": -0.001})
     config("train_batch.json", {"batch_size": 0})
     config("train_val.json", {"val_fraction": 1.5})
@@ -257,6 +261,12 @@ CASES: dict[str, Case] = {
                            "not valid json"),
     "gen-config-empty": Case("objects generate --kind primitive --count 1 --out @out --config @empty.json",
                              "empty.json"),
+    "gen-profile-typo": Case("objects generate --kind primitive --count 1 --out @out --config wdie",
+                             "unknown generator profile 'wdie'"),
+    "gen-variant-part": Case("objects generate --kind primitive --count 1 --out @out --config "
+                             "@gen_variant.json", "part"),
+    "gen-variant-sum": Case("objects generate --kind primitive --count 1 --out @out --config "
+                            "@gen_variant_sum.json", "more than 1"),
     "gen-config-dir": Case("objects generate --kind primitive --count 1 --out @out --config @adir", "adir"),
     "gen-config-other": Case("objects generate --kind primitive --count 1 --out @out --config @gen_cfg.json",
                              "simconfig"),
@@ -451,6 +461,7 @@ CASES: dict[str, Case] = {
     # pipeline
     "pipe-task": Case("pipeline --task juggling --out @out", "juggling"),
     "pipe-preset": Case("pipeline --task hammering --preset fast --out @out", "fast"),
+    "pipe-preset-typo": Case("pipeline --task hammering --preset medium-wdie --out @out", "medium-wide"),
     "pipe-preset-bad": Case("pipeline --task hammering --preset @bad.json --out @out", "bad.json"),
     "pipe-preset-missing": Case("pipeline --task hammering --preset @nope.json --out @out", "nope.json"),
     "pipe-preset-huge": Case("pipeline --task hammering --preset @preset_huge.json --out @out", "trials"),
