@@ -46,9 +46,11 @@ METHOD_NOTES = {
     "Oracle": "simulator ground truth: NMS modes held both ways round, each tried in the simulator with "
               "actions computed from the tool's pose in the hand, on execution-noise seeds the evaluation "
               "does not use; an upper bound, not a method a robot could run",
-    BOUND: "the stronger bound, simulator ground truth: every method's own plan (and the learned ones' next "
-           "grasps) tried in the simulator, then the Oracle's motion from those grasps, then a wider Oracle "
-           "search, all on the same search seeds; the best pair found",
+    BOUND: "the stronger bound, simulator ground truth: the Oracle's plan and every method's own plan (and "
+           "the learned ones' next grasps) tried in the simulator, ties between plans that won every trial "
+           "broken on more trials; then the Oracle's motion from those grasps, a wider Oracle search and "
+           "small moves of the best action, on execution-noise seeds the evaluation does not use; the pair "
+           "that won most",
     ORACLE_MOTION: "diagnostic, uses the simulator: TOG-Net's grasp (CEM on Q_T), then the Oracle's action "
                    "search from that grasp in the simulator; its gain over TOG-Net is what a perfect "
                    "motion is worth from TOG-Net's grasps",
@@ -396,8 +398,10 @@ def methods_table(results: dict[str, Any], title: str = "") -> Table:
 
 
 def _chart_note(results: dict[str, Any]) -> str:
-    note = "Bars: task success over valid trials; whiskers: 95 % Wilson intervals. Hatched: the Oracle " \
-           "(upper bound)."
+    bounds = [m for m in (ORACLE, BOUND) if m in results.get("methods", ())]
+    note = "Bars: task success over valid trials; whiskers: 95 % Wilson intervals."
+    if bounds:
+        note += f" Hatched: {' and '.join(bounds)} (upper bounds, simulator ground truth)."
     if _has_diagnostics(results):
         note += " The diagnostic rows (†) are not drawn here: they use the simulator, see where the gap is."
     return note
