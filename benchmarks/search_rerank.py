@@ -44,12 +44,13 @@ RULES: dict[str, str] = {
 }
 
 
-def robust_value(model: Any, view: Any, grasps: Any, acts: Any, rng: np.random.Generator, k: int = 8
-                 ) -> tuple[list[float], list[float]]:
-    """Mean and minimum of Q_G * Q_T|G,a over ``k`` draws of the execution's grasp noise (uniform +-4 mm in
-    x and y, +-3 degrees of yaw, the simulator's defaults) around each grasp, its action kept."""
+def robust_value(model: Any, view: Any, grasps: Any, acts: Any, episode: Any, rng: np.random.Generator,
+                 k: int = 8) -> tuple[list[float], list[float]]:
+    """Mean and minimum of Q_G * Q_T|G,a over ``k`` draws of the execution's grasp noise in x, y and yaw
+    (``episode``: the simulator's :class:`EpisodeConfig`) around each grasp, its action kept."""
     n = len(grasps)
-    shake = rng.uniform(-1, 1, (n, k, 4)) * np.array([0.004, 0.004, 0.0, np.pi / 60])
+    xy, yaw = episode.grasp_position_noise, episode.grasp_yaw_noise
+    shake = rng.uniform(-1, 1, (n, k, 4)) * np.array([xy, xy, 0.0, yaw])
     moved = (grasps[:, None, :] + shake).reshape(n * k, 4)
     crops, z = view.crops(moved)
     enc = model.encode(crops, z)
@@ -81,7 +82,7 @@ def scene_rows(sim: Any, planner: Any, model: Any, obs: Any, top: int, seeds: in
         wins.append(sum(int(sim.execute(grasp, a, seed=100 + k).task_success) for k in range(seeds)))
     progress = np.asarray(scores.progress)[:, 0]
     q_g = enc.q_g[rows].astype(float)
-    mean, low = robust_value(model, view, grasps[rows], acts, rng)
+    mean, low = robust_value(model, view, grasps[rows], acts, sim.config.episode, rng)
     return {"robust": mean, "robust_min": low,
             "n": int(len(grasps)), "rating": rating[rows].tolist(), "q_g": q_g.tolist(),
             "q_t": succ.astype(float).tolist(), "progress": progress.astype(float).tolist(),
@@ -191,6 +192,9 @@ def main() -> None:
     ap.add_argument("--rescore", type=Path, help="add the scores to this finished file's scenes, no trials")
     ap.add_argument("--summary", type=Path, help="print the rules' success on a finished file")
     args = ap.parse_args()
+    for given in (args.summary, args.rescore):
+        if given is not None and not given.is_file():
+            ap.error(f"{given}: no such file")
     if args.summary:
         summary(args.summary)
     elif args.task and args.out:
