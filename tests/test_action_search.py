@@ -16,7 +16,13 @@ from tognet.model.config import ArchConfig, LossConfig, TrainConfig
 from tognet.model.predict import TOGNetPredictor
 from tognet.model.train import train
 from tognet.objects.handmade import grasp_on_object, make_t_hammer
-from tognet.policies.action_search import ActionSearchActions, ActionSearchConfig, ActionSearchGrasps, search
+from tognet.policies.action_search import (
+    ActionSearchActions,
+    ActionSearchConfig,
+    ActionSearchGrasps,
+    SearchCandidateGrasps,
+    search,
+)
 from tognet.policies.view import SceneView
 from tognet.sim import SimConfig, Simulator
 from tognet.tasks import get_props, get_task
@@ -140,3 +146,22 @@ def test_policies_are_seeded_and_share_the_scene_search(hammer):
                                                                             np.random.default_rng(1))
     assert not np.allclose(noisy.actions, a2.actions)
     assert np.all(noisy.actions >= sim.task.action_low) and np.all(noisy.actions <= sim.task.action_high)
+
+
+def test_search_candidates_cycle_through_the_searchs_best_grasps_each_with_its_own_action(hammer):
+    sim, model, crop = hammer
+    view, _ = _scene(sim, 504, crop)
+    cfg = ActionSearchConfig()  # refines 4; the policy widens that to its count
+    rng = np.random.default_rng(3)
+    pick = SearchCandidateGrasps(model, cfg, 6)(view, 8, rng)
+    grasps, res = view.cache[f"action_search_{id(model)}"]
+    assert len(res.index) == 6  # the search refined as many as the policy cycles through
+    np.testing.assert_array_equal(pick.grasps[:6], grasps[res.index])
+    np.testing.assert_array_equal(pick.grasps[6:], grasps[res.index[:2]])  # then from the best again
+    assert len(np.unique(pick.grasps, axis=0)) == 6
+    assert np.all(np.diff(pick.score[:6]) <= 0)  # best Q_T first
+    acts = ActionSearchActions(model, cfg)(view, pick.grasps, rng)
+    np.testing.assert_allclose(acts.actions[:6], res.actions)  # each with the search's own action
+    single = SearchCandidateGrasps(model, cfg, 1)(SceneView(view.scene, view.candidates, view.task, crop),
+                                                  3, np.random.default_rng(3))
+    assert np.all(single.grasps == single.grasps[0])

@@ -333,3 +333,5 @@ def test_a_rounds_policies_are_built_from_its_policy_name_in_one_place(objects):
         round_policies(job("sweeping", "epsilon_greedy"), sim)
     with pytest.raises(ValueError, match="unknown round policy 'greedy'"):
         round_policies(job("sweeping", "greedy"), sim)
+    with pytest.raises(ValueError, match="search_candidates round needs an action-search model"):
+        round_policies(job("sweeping", "search_candidates"), sim, None, model)

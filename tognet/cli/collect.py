@@ -70,7 +70,8 @@ def collect_cmd(
     out: Path = typer.Option(..., "--out", help="Dataset folder to write (resumes what is already there)."),
     episodes: int = typer.Option(1000, "--episodes", min=1, help="Trials to run (rounded up to whole jobs)."),
     policy: str = typer.Option("nms_uniform", "--policy",
-                               help="nms_uniform (round 1) or epsilon_greedy (needs --task-model)."),
+                               help="nms_uniform (round 1), epsilon_greedy or search_candidates (an "
+                               "action-search model's best candidates per scene; both need --task-model)."),
     round_index: int = typer.Option(1, "--round", min=0, help="Round number (part of every seed)."),
     grasp_model: Path | None = typer.Option(None, "--grasp-model",
                                             help="The grasp-only checkpoint (task 'grasping', e.g. "
@@ -92,17 +93,17 @@ def collect_cmd(
     --out holds shard-<job>.npz files (one job: one object, a few scenes), manifest.json (counts, labels,
     hashes), configs/ (the settings) and summary.json (the round's figures). Run again on the same --out with
     the same arguments it resumes; other arguments are refused."""
-    from tognet.collect.config import CollectConfig, RoundConfig
+    from tognet.collect.config import MODEL_POLICIES, ROUND_POLICIES, CollectConfig, RoundConfig
     from tognet.collect.rounds import collect_round
     from tognet.jobs.workers import make_executor
     from tognet.objects.record import load_catalog
     from tognet.tasks import GRASP_ONLY, SIM_TASKS, check_task_name
 
     check_task_name(task, SIM_TASKS)
-    if policy not in ("nms_uniform", "epsilon_greedy"):
-        raise ValueError(f"unknown policy '{policy}'; use nms_uniform or epsilon_greedy")
-    if policy == "epsilon_greedy" and task_model is None:
-        raise ValueError("--policy epsilon_greedy needs --task-model (the last round's best.pt)")
+    if policy not in ROUND_POLICIES:
+        raise ValueError(f"unknown policy '{policy}'; use {', '.join(ROUND_POLICIES)}")
+    if policy in MODEL_POLICIES and task_model is None:
+        raise ValueError(f"--policy {policy} needs --task-model (the last round's best.pt)")
     out_folder(out)
     cfg = CollectConfig.load(config) if config else CollectConfig()
     cfg = cfg.replace(sim=robot_config(cfg.sim, robot))

@@ -23,7 +23,10 @@ from tognet.policies.config import PolicyConfig
 from tognet.sim.config import SimConfig
 
 #: Names of the grasp and action policies a round can use.
-RoundPolicy = Literal["nms_uniform", "epsilon_greedy"]
+RoundPolicy = Literal["nms_uniform", "epsilon_greedy", "search_candidates"]
+#: Every round policy, and those that need the last round's task model (all but the first).
+ROUND_POLICIES: tuple[str, ...] = ("nms_uniform", "epsilon_greedy", "search_candidates")
+MODEL_POLICIES: tuple[str, ...] = ("epsilon_greedy", "search_candidates")
 
 
 @dataclass(frozen=True)
@@ -66,7 +69,10 @@ class RoundConfig(Config):
         "nms_uniform",
         "'nms_uniform': NMS modes of the candidates ranked by grasp quality, uniform actions over the "
         "task's box (round 1); 'epsilon_greedy': CEM on the last model's Q_T and its action mean plus "
-        "noise, with epsilon exploration (rounds 2+).",
+        "noise, with epsilon exploration (rounds 2+); 'search_candidates' (an action-search model only): "
+        "the search's ``policy.search_candidates`` best candidates of each scene in turn, each with its "
+        "searched action, with the same epsilon exploration (the grasps the search nearly chose: its "
+        "hard negatives within a scene).",
     )
     epochs: int = doc(10, "Training epochs after the round (on all data so far, warm-started).", ge=1)
     expert_actions: float | None = doc(
@@ -140,9 +146,9 @@ class PipelineConfig(Config):
                                                         self.task_rounds.items())):
             if not rounds:
                 raise ConfigRangeError("PipelineConfig", name, "is empty: a task needs at least one round")
-            if rounds[0].policy == "epsilon_greedy":
-                raise ConfigRangeError("PipelineConfig", name, "starts with an epsilon_greedy round, which "
-                                       "needs the model of a round before it; start with nms_uniform")
+            if rounds[0].policy in MODEL_POLICIES:
+                raise ConfigRangeError("PipelineConfig", name, f"starts with a {rounds[0].policy} round, "
+                                       "which needs the model of a round before it; start with nms_uniform")
 
     def rounds_for(self, task: str) -> tuple[RoundConfig, ...]:
         """The rounds of ``task``."""

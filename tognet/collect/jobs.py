@@ -27,13 +27,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tognet.collect.config import CollectConfig, RoundPolicy
+from tognet.collect.config import MODEL_POLICIES, ROUND_POLICIES, CollectConfig, RoundPolicy
 from tognet.jobs.models import load_model
 from tognet.jobs.output import JobOutput
 from tognet.jobs.scenes import reset_scene
 from tognet.objects.record import ObjectRecord
 from tognet.policies.action import ExpertActions, NoActions, PolicyActions, UniformActions
-from tognet.policies.action_search import ActionSearchActions, ActionSearchGrasps
+from tognet.policies.action_search import ActionSearchActions, ActionSearchGrasps, SearchCandidateGrasps
+from tognet.policies.config import PolicyConfig
 from tognet.policies.grasp import CEMGrasp, NMSGrasps
 from tognet.policies.mix import EpsilonGreedyActions, EpsilonGreedyGrasps, ExpertMixActions
 from tognet.policies.view import ActionPolicy, GraspPolicy, SceneView, check_predictor_crops
@@ -137,6 +138,8 @@ def round_policies(job: Job, sim: Any, grasp_model: Any = None, task_model: Any 
     uniform actions. ``epsilon_greedy`` is the task model's CEM grasp and noisy action mean, mixed with
     that exploration per trial (epsilon_1, epsilon_2); with a model whose task stream sees the action, the
     greedy grasp and action are the learned action search's (:mod:`tognet.policies.action_search`).
+    ``search_candidates`` is that mix with the search's best few candidates of each scene in turn as the
+    greedy grasps.
     Exploring actions are the simulator's expert ones with probability ``expert_actions`` (tasks only;
     the grasp-only task has no action)."""
     p = job.config.policy
@@ -146,20 +149,28 @@ def round_policies(job: Job, sim: Any, grasp_model: Any = None, task_model: Any 
         explore_actions = ExpertMixActions(explore_actions, ExpertActions(sim), p.expert_actions)
     if job.policy == "nms_uniform":
         return explore_grasps, explore_actions
-    if job.policy != "epsilon_greedy":
-        raise ValueError(f"unknown round policy {job.policy!r}; use nms_uniform or epsilon_greedy")
-    if task_model is None:
-        raise ValueError("an epsilon-greedy round needs the last round's task model")
-    greedy_grasps: GraspPolicy
-    greedy_actions: ActionPolicy
-    if getattr(task_model, "action_conditioned", False):  # the learned action search's model
-        greedy_grasps = ActionSearchGrasps(task_model, p.action_search)
-        greedy_actions = ActionSearchActions(task_model, p.action_search, p.action_noise)
-    else:
-        greedy_grasps = CEMGrasp(p, task_model)
-        greedy_actions = PolicyActions(task_model, p.action_noise)
+    greedy_grasps, greedy_actions = _greedy_policies(job.policy, p, task_model)
     return (EpsilonGreedyGrasps(greedy_grasps, explore_grasps, p.epsilon_grasp),
             EpsilonGreedyActions(greedy_actions, explore_actions, p.epsilon_action))
+
+
+def _greedy_policies(policy: str, p: PolicyConfig, task_model: Any) -> tuple[GraspPolicy, ActionPolicy]:
+    """The greedy half of a round that needs a model: CEM and the policy's action mean, the learned action
+    search's grasp and action (a model whose task stream sees the action), or that search's best
+    candidates in turn (``search_candidates``)."""
+    if policy not in MODEL_POLICIES:
+        raise ValueError(f"unknown round policy {policy!r}; use {', '.join(ROUND_POLICIES)}")
+    if task_model is None:
+        raise ValueError(f"a {policy} round needs the last round's task model")
+    searching = getattr(task_model, "action_conditioned", False)
+    if policy == "search_candidates" and not searching:
+        raise ValueError("a search_candidates round needs an action-search model (task_head 'action')")
+    if not searching:
+        return CEMGrasp(p, task_model), PolicyActions(task_model, p.action_noise)
+    grasps: GraspPolicy = ActionSearchGrasps(task_model, p.action_search)
+    if policy == "search_candidates":
+        grasps = SearchCandidateGrasps(task_model, p.action_search, p.search_candidates)
+    return grasps, ActionSearchActions(task_model, p.action_search, p.action_noise)
 
 
 def _run_job(job: Job) -> JobOutput:

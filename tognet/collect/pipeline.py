@@ -22,7 +22,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from tognet.collect.config import PipelineConfig, RoundConfig
+from tognet.collect.config import MODEL_POLICIES, PipelineConfig, RoundConfig
 from tognet.collect.rounds import SUMMARY, collect_round
 from tognet.errors import TognetError
 from tognet.io import atomic_copy, atomic_write_text
@@ -146,9 +146,9 @@ def run_pipeline(
             data: list[Path] = []
             for k, rc in enumerate(preset.rounds_for(task), start=1):
                 rdir = out / task / f"round{k}"
-                policy_model = last if rc.policy == "epsilon_greedy" else None
-                if rc.policy == "epsilon_greedy" and policy_model is None:
-                    raise PipelineError(f"round {k} is epsilon-greedy but no model was trained before it")
+                policy_model = last if rc.policy in MODEL_POLICIES else None
+                if rc.policy in MODEL_POLICIES and policy_model is None:
+                    raise PipelineError(f"round {k} is {rc.policy} but no model was trained before it")
                 r = _collect(task, k, objects, rc, preset, rdir / "data", grasp_model, policy_model, executor,
                              log, progress)
                 data.append(rdir / "data")

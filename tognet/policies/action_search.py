@@ -25,7 +25,7 @@ draws come from the generator given, so a search is reproducible. Pure numpy aro
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -213,6 +213,23 @@ class ActionSearchGrasps:
         best = grasps[res.index[0]]
         return GraspPick(np.repeat(best[None], n, axis=0), np.full(n, GRASP_SOURCES["search"], np.int8),
                          np.full(n, res.q_t[0], np.float32))
+
+
+class SearchCandidateGrasps(ActionSearchGrasps):
+    """Grasp policy for collection: the action search's ``count`` best candidates of the scene (each
+    refined, best Q_T first), trial i taking the (i mod count)-th: the grasps the search nearly chose, so
+    that its ranking within a scene learns from their outcomes. Shares the search's cache with
+    :class:`ActionSearchActions`, which then executes each with its own searched action."""
+
+    def __init__(self, model: Any, config: ActionSearchConfig, count: int) -> None:
+        super().__init__(model, replace(config, refine_grasps=max(config.refine_grasps, count)))
+        self.count = count
+
+    def __call__(self, view: SceneView, n: int, rng: np.random.Generator) -> GraspPick:
+        grasps, res = self.result(view, rng)
+        pick = np.arange(n) % max(1, min(self.count, len(res.index)))
+        return GraspPick(grasps[res.index[pick]].copy(), np.full(n, GRASP_SOURCES["search"], np.int8),
+                         res.q_t[pick].astype(np.float32))
 
 
 class ActionSearchActions:

@@ -102,6 +102,14 @@ class PolicyConfig(Config):
         "exploration finds too few successes to learn the policy from; labels still come from the trials.",
         ge=0, le=1,
     )
+    search_candidates: int = doc(
+        8,
+        "A 'search_candidates' round: how many of the action search's best candidates of each scene its "
+        "greedy trials cycle through (each refined by CEM and executed with its searched action): the "
+        "grasps the search ranks just below or above the one it picks, where its ranking within a scene is "
+        "weakest.",
+        ge=1, omit_default=True,
+    )
     max_modes: int = doc(30, "NMS modes kept per scene at most (the paper's 10-30 distinct modes).", ge=1)
     nms: NMSConfig = doc(factory=NMSConfig, text="Suppression radius of the exploration grasps.")
     action_search: ActionSearchConfig = doc(
