@@ -115,7 +115,8 @@ def collect_cmd(
         check_model_role(grasp_model, GRASP_ONLY, "--grasp-model",
                          context=" (e.g. tognet/models/grasping.pt)")
     if task_model is not None:
-        check_model_role(task_model, task, "--task-model", context=f" for --task {task}")
+        check_model_role(task_model, task, "--task-model", context=f" for --task {task}",
+                         action_search=True if policy == "search_candidates" else None)
     executor = make_executor(workers, ray, ray_address)
     try:
         collect_round(task, round_index, records, RoundConfig(episodes=episodes, policy=policy), cfg, out,
