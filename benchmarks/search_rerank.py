@@ -76,17 +76,18 @@ def scene_rows(sim: Any, planner: Any, model: Any, obs: Any, top: int, seeds: in
     rows = np.argsort(-rating, kind="stable")[:top]
     acts, succ = refine_actions(model, enc, rows, rate_a[rows], lo[rows], hi[rows], cfg, rng)
     scores = model.score_actions(enc, acts[:, None, :], rows)
-    wins = []
+    outcomes = []
     for g, a in zip(grasps[rows] if execute else [], acts, strict=False):
         grasp = Grasp.from_array(np.asarray(g, np.float64))
-        wins.append(sum(int(sim.execute(grasp, a, seed=100 + k).task_success) for k in range(seeds)))
+        outcomes.append([int(sim.execute(grasp, a, seed=100 + k).task_success) for k in range(seeds)])
     progress = np.asarray(scores.progress)[:, 0]
     q_g = enc.q_g[rows].astype(float)
     mean, low = robust_value(model, view, grasps[rows], acts, sim.config.episode, rng)
     return {"robust": mean, "robust_min": low,
             "n": int(len(grasps)), "rating": rating[rows].tolist(), "q_g": q_g.tolist(),
             "q_t": succ.astype(float).tolist(), "progress": progress.astype(float).tolist(),
-            "quality": view.candidates.quality[rows].astype(float).tolist(), "wins": wins, "seeds": seeds}
+            "quality": view.candidates.quality[rows].astype(float).tolist(),
+            "wins": [sum(o) for o in outcomes], "outcomes": outcomes, "seeds": seeds}
 
 
 def _values(row: dict[str, Any]) -> dict[str, tuple[int, Any]]:
@@ -127,6 +128,26 @@ def summary(path: Path) -> None:
           + ", ".join(f"#{k + 1} {n}" for k, n in sorted(ranks.items())))
     none = sum(max(r["wins"]) == 0 for r in rows)
     print(f"  scenes where no searched candidate wins any seed: {none} of {len(rows)}")
+    if all("outcomes" in r for r in rows):
+        held = np.array([held_out_best(r) for r in rows])
+        print(f"  held-out ceiling {100 * held.mean():5.1f} %  (the candidate with the most wins on the "
+              f"other {seeds - 1} seeds, scored on the one left out; ties by the planner's value): the"
+              " ceiling without the maximum's optimism")
+        mixed = sum(0 < r["wins"][pick("planner", r)] < seeds for r in rows)
+        print(f"  scenes where the planner's pick both wins and loses across seeds: {mixed} of {len(rows)}")
+
+
+def held_out_best(row: dict[str, Any]) -> float:
+    """Leave-one-seed-out: for each seed, the candidate with the most wins on the other seeds (ties broken
+    by the planner's value), scored on that seed; the mean over seeds."""
+    out = np.asarray(row["outcomes"], float)  # (candidates, seeds)
+    _, value = _values(row)["top12"]
+    got = []
+    for s in range(out.shape[1]):
+        other = np.delete(out, s, axis=1).sum(axis=1)
+        best = np.flatnonzero(other == other.max())
+        got.append(out[best[np.argmax(value[best])], s])
+    return float(np.mean(got))
 
 
 def run(args: argparse.Namespace) -> None:
