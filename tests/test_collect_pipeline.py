@@ -104,6 +104,10 @@ def test_presets_load_and_cli_errors_are_one_line(tmp_path):
     res = runner.invoke(app, ["collect", "--task", "sweeping", "--objects", str(tmp_path / "nope"),
                               "--out", str(tmp_path / "d"), "--policy", "epsilon_greedy"])
     assert res.exit_code == 2 and "--task-model" in res.output
+    for first in ("epsilon_greedy", "search_candidates"):  # a round that needs a model cannot come first
+        bad.write_text(json.dumps({"config_type": "PipelineConfig", "rounds": [{"policy": first}]}))
+        res = runner.invoke(app, ["pipeline", "--task", "sweeping", "--preset", str(bad), "--out", out])
+        assert res.exit_code == 2 and f"starts with a {first} round" in res.output
     for cmd in ("collect", "pipeline"):
         res = runner.invoke(app, [cmd, "--help"])
         assert res.exit_code == 0 and "--workers" in res.output and "--ray" in res.output
