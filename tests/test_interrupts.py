@@ -29,9 +29,16 @@ def setup(tmp_path_factory):
     return root
 
 
+#: Trials of the interrupted round: 40 jobs of 12.
+EPISODES = 480
+
+
 def _args(root: Path, out: str) -> list[str]:
+    # 40 jobs: after the workers' start-up the jobs take a fraction of a second each, so fewer can all end
+    # between the first shard appearing and the signal arriving on a loaded machine (seen once in CI).
     return ["collect", "--task", "hammering", "--objects", str(root / "objs"), "--out", str(root / out),
-            "--episodes", "120", "--config", str(root / "long.json"), "--workers", "2", "--no-progress"]
+            "--episodes", str(EPISODES), "--config", str(root / "long.json"), "--workers", "2",
+            "--no-progress"]
 
 
 def _records(folder: Path) -> dict[str, np.ndarray]:
@@ -91,12 +98,13 @@ def test_an_interrupted_collection_says_how_to_continue_and_continuing_loses_not
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("interrupted (SIG"), err  # no traceback, no warning
     assert "is whole and kept" in lines[0] and str(root / tag) in lines[0]
-    assert len(list((root / tag).glob("shard-*.npz"))) < 10, "the round finished before the signal"
+    shards = len(list((root / tag).glob("shard-*.npz")))
+    assert shards < EPISODES // 12, "the round finished before the signal"
     again = shlex.split(lines[0].split("continue with: ", 1)[1])
     assert again[0] == "tognet"
     subprocess.run([TOGNET, *again[1:]], check=True, capture_output=True, timeout=600)
     a, b = _records(reference), _records(root / tag)
-    assert len(a["z"]) == len(b["z"]) == 120
+    assert len(a["z"]) == len(b["z"]) == EPISODES
     for name in a:
         np.testing.assert_array_equal(a[name], b[name], err_msg=name)
 
