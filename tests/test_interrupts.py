@@ -29,16 +29,16 @@ def setup(tmp_path_factory):
     return root
 
 
-#: Trials of the interrupted round: 40 jobs of 12.
-EPISODES = 480
+def _ctrl_c_default() -> None:
+    """In the child before exec: SIGINT back to its default. A shell without job control starts background
+    commands with SIGINT ignored, children inherit that, and Python then installs no Ctrl-C handler: run so
+    (e.g. ``(./.ci/run &)``), the command would rightly ignore the test's Ctrl-C and finish."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def _args(root: Path, out: str) -> list[str]:
-    # 40 jobs: after the workers' start-up the jobs take a fraction of a second each, so fewer can all end
-    # between the first shard appearing and the signal arriving on a loaded machine (seen once in CI).
     return ["collect", "--task", "hammering", "--objects", str(root / "objs"), "--out", str(root / out),
-            "--episodes", str(EPISODES), "--config", str(root / "long.json"), "--workers", "2",
-            "--no-progress"]
+            "--episodes", "120", "--config", str(root / "long.json"), "--workers", "2", "--no-progress"]
 
 
 def _records(folder: Path) -> dict[str, np.ndarray]:
@@ -84,7 +84,7 @@ def test_an_interrupted_collection_says_how_to_continue_and_continuing_loses_not
     if not reference.exists():
         subprocess.run([TOGNET, *_args(root, "reference")], check=True, capture_output=True, timeout=600)
     proc = subprocess.Popen([TOGNET, *_args(root, tag)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, start_new_session=True)
+                            text=True, start_new_session=True, preexec_fn=_ctrl_c_default)
     deadline = time.monotonic() + 300
     while not list((root / tag).glob("shard-*.npz")):
         assert proc.poll() is None and time.monotonic() < deadline, "ended before any shard"
@@ -98,13 +98,12 @@ def test_an_interrupted_collection_says_how_to_continue_and_continuing_loses_not
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("interrupted (SIG"), err  # no traceback, no warning
     assert "is whole and kept" in lines[0] and str(root / tag) in lines[0]
-    shards = len(list((root / tag).glob("shard-*.npz")))
-    assert shards < EPISODES // 12, "the round finished before the signal"
+    assert len(list((root / tag).glob("shard-*.npz"))) < 10, "the round finished before the signal"
     again = shlex.split(lines[0].split("continue with: ", 1)[1])
     assert again[0] == "tognet"
     subprocess.run([TOGNET, *again[1:]], check=True, capture_output=True, timeout=600)
     a, b = _records(reference), _records(root / tag)
-    assert len(a["z"]) == len(b["z"]) == EPISODES
+    assert len(a["z"]) == len(b["z"]) == 120
     for name in a:
         np.testing.assert_array_equal(a[name], b[name], err_msg=name)
 
