@@ -31,6 +31,7 @@ import math
 import queue
 import threading
 import warnings
+import zlib
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, Literal
@@ -42,8 +43,9 @@ from tognet.data.episodes import dataset_shards, expand_dataset_dirs, read_colum
 from tognet.data.format import DatasetError
 
 Split = Literal["train", "val", "all"]
-#: Columns a batch carries, and the columns read to select a shard's rows.
-BATCH_FIELDS = ("crop", "z", "action", "grasp_success", "task_success", "progress")
+#: Columns a batch carries (``scene`` is made from ``object_id`` and ``scene_seed`` when read), and the
+#: columns read to select a shard's rows.
+BATCH_FIELDS = ("crop", "z", "action", "grasp_success", "task_success", "progress", "scene")
 _SELECT_FIELDS = ("valid", "object_id")
 #: Seed stream of the shards sampled for normalisation statistics (distinct from the epochs' streams).
 _SAMPLE_STREAM = 0x6E6F726D
@@ -52,7 +54,8 @@ _SAMPLE_STREAM = 0x6E6F726D
 @dataclasses.dataclass
 class Batch:
     """One batch of episodes as float32 tensors: crop (B, 64, 64), z (B,), action (B, 4), s_g and s_t (B,)
-    (grasp and task success as 0/1), progress (B,) (the task's graded outcome in [0, 1], -1 unknown)."""
+    (grasp and task success as 0/1), progress (B,) (the task's graded outcome in [0, 1], -1 unknown), and
+    scene (B,) int64, a key equal for the trials of one scene (:func:`scene_keys`; None when not read)."""
 
     crop: torch.Tensor
     z: torch.Tensor
@@ -60,6 +63,7 @@ class Batch:
     s_g: torch.Tensor
     s_t: torch.Tensor
     progress: torch.Tensor
+    scene: torch.Tensor | None = None
 
     def __len__(self) -> int:
         return int(self.z.shape[0])
@@ -68,7 +72,8 @@ class Batch:
         """The batch on ``device`` (itself when already there)."""
         if self.z.device == torch.device(device):
             return self
-        return Batch(**{f.name: getattr(self, f.name).to(device) for f in dataclasses.fields(self)})
+        return Batch(**{f.name: None if getattr(self, f.name) is None else getattr(self, f.name).to(device)
+                        for f in dataclasses.fields(self)})
 
     @staticmethod
     def from_columns(columns: dict[str, np.ndarray], index: np.ndarray | slice | None = None) -> Batch:
@@ -81,8 +86,19 @@ class Batch:
             return torch.from_numpy(np.ascontiguousarray(columns[name][sl])).to(torch.float32, copy=True)
 
         progress = f32("progress") if "progress" in columns else torch.full_like(f32("z"), -1.0)
+        scene = torch.from_numpy(np.ascontiguousarray(columns["scene"][sl])) if "scene" in columns else None
         return Batch(crop=f32("crop"), z=f32("z"), action=f32("action"), s_g=f32("grasp_success"),
-                     s_t=f32("task_success"), progress=progress)
+                     s_t=f32("task_success"), progress=progress, scene=scene)
+
+
+def scene_keys(object_id: np.ndarray, scene_seed: np.ndarray) -> np.ndarray:
+    """An int64 key per episode, equal for the trials of one scene (one object, one scene seed): the
+    object id's CRC-32 in the high bits, the seed's low 32 bits below (a collision needs two objects with
+    one CRC-32 and seeds equal modulo 2**32)."""
+    ids, inverse = np.unique(np.asarray(object_id), return_inverse=True)
+    crc = np.array([zlib.crc32(str(i).encode()) for i in ids], dtype=np.int64)[inverse.reshape(-1)]
+    low = np.asarray(scene_seed, dtype=np.int64) & 0xFFFFFFFF
+    return (crc << 31) ^ low
 
 
 @dataclasses.dataclass(frozen=True)
@@ -115,8 +131,20 @@ class _Pool:
         self.n += k
 
     def draw(self, k: int, rng: np.random.Generator) -> Batch:
-        n = self.n
-        sel = rng.choice(n, size=k, replace=False)
+        return self._take(rng.choice(self.n, size=k, replace=False))
+
+    def draw_scenes(self, k: int, rng: np.random.Generator) -> Batch:
+        """Whole scenes, picked at random, until the next one would pass ``k`` episodes (at least one
+        scene): every trial of a scene in the buffer lands in one batch, for a within-scene loss."""
+        _, group, size = np.unique(self.cols["scene"][: self.n], return_inverse=True, return_counts=True)
+        group = group.reshape(-1)
+        order = _first_seen(group[rng.permutation(self.n)])
+        fits = max(int(np.searchsorted(np.cumsum(size[order]), k, side="right")), 1)
+        return self._take(np.flatnonzero(np.isin(group, order[:fits])))
+
+    def _take(self, sel: np.ndarray) -> Batch:
+        """The batch of rows ``sel`` (distinct), removed from the buffer."""
+        n, k = self.n, len(sel)
         batch = Batch.from_columns(self.cols, sel)
         tail = n - k
         holes = np.sort(sel[sel < tail])
@@ -128,11 +156,22 @@ class _Pool:
         self.n = tail
         return batch
 
-    def drain(self, batch_size: int, rng: np.random.Generator) -> Iterator[Batch]:
+    def drain(self, batch_size: int, rng: np.random.Generator, scenes: bool = False) -> Iterator[Batch]:
         perm = rng.permutation(self.n)
+        if scenes:  # scenes in a random order, each one's rows together (one may straddle two batches)
+            _, group = np.unique(self.cols["scene"][: self.n], return_inverse=True)
+            rank = np.empty(group.max() + 1, dtype=np.int64)
+            rank[_first_seen(group.reshape(-1)[perm])] = np.arange(len(rank))
+            perm = perm[np.argsort(rank[group.reshape(-1)[perm]], kind="stable")]
         for lo in range(0, self.n, batch_size):
             yield Batch.from_columns(self.cols, perm[lo : lo + batch_size])
         self.n = 0
+
+
+def _first_seen(values: np.ndarray) -> np.ndarray:
+    """The distinct values of ``values`` in the order they first appear."""
+    _, first = np.unique(values, return_index=True)
+    return values[np.sort(first)]
 
 
 class EpisodeStream:
@@ -143,7 +182,9 @@ class EpisodeStream:
     drives the training order). ``shuffle_buffer``: episodes held for shuffling training batches.
     ``skip_bad``: skip a corrupt or truncated shard with a warning instead of raising. ``progress``: a tqdm
     bar over the listing pass. ``prefetch``: batches made ahead by a background thread (0: none, made on
-    demand; the batches are the same either way).
+    demand; the batches are the same either way). ``scene_batches``: training batches are made of whole
+    scenes (every trial of a scene in the buffer goes into one batch, at most ``batch_size`` episodes a
+    batch unless one scene alone has more), for a loss that compares the trials of one scene.
     """
 
     def __init__(
@@ -157,6 +198,7 @@ class EpisodeStream:
         skip_bad: bool = False,
         progress: bool = False,
         prefetch: int = 2,
+        scene_batches: bool = False,
     ) -> None:
         if shuffle_buffer < 0:
             raise ValueError(f"shuffle_buffer must be >= 0, got {shuffle_buffer}")
@@ -167,6 +209,7 @@ class EpisodeStream:
         self.shuffle_buffer = int(shuffle_buffer)
         self.skip_bad = skip_bad
         self.prefetch = int(prefetch)
+        self.scene_batches = bool(scene_batches)
         self._local = threading.local()
         self._bad: set[Path] = set()
         paths = self._list_paths()
@@ -250,11 +293,13 @@ class EpisodeStream:
     # -- reading ----------------------------------------------------------------------------------------
     def read(self, shard: ShardInfo, split: Split, fields: Sequence[str] = BATCH_FIELDS
              ) -> dict[str, np.ndarray] | None:
-        """The ``split`` episodes of one shard as columns (crops float16); None for a bad shard skipped."""
+        """The ``split`` episodes of one shard as columns (crops float16); None for a bad shard skipped.
+        A ``scene`` field is made from the stored ``object_id`` and ``scene_seed`` (:func:`scene_keys`)."""
         if shard.path in self._bad:
             return None
+        stored = [f for f in fields if f != "scene"] + (["scene_seed"] if "scene" in fields else [])
         try:
-            cols, _ = read_columns(shard.path, tuple(dict.fromkeys((*fields, *_SELECT_FIELDS))))
+            cols, _ = read_columns(shard.path, tuple(dict.fromkeys((*stored, *_SELECT_FIELDS))))
         except DatasetError as exc:
             if not self.skip_bad:
                 raise
@@ -268,6 +313,8 @@ class EpisodeStream:
         if int(keep.sum()) != expected:
             raise DatasetError(f"{shard.path}: holds {int(keep.sum())} {split} episodes, {expected} when the "
                                "dataset was listed (was the shard rewritten meanwhile?)")
+        if "scene" in fields:
+            cols["scene"] = scene_keys(cols["object_id"], cols["scene_seed"])
         return {k: cols[k][keep] for k in fields}
 
     def _shard_columns(self, shards: Sequence[ShardInfo], split: Split) -> Iterator[dict[str, np.ndarray]]:
@@ -360,9 +407,9 @@ class EpisodeStream:
             pool.add(cols)
             del cols
             while pool.n >= fill:
-                yield pool.draw(batch_size, rng)
+                yield pool.draw_scenes(batch_size, rng) if self.scene_batches else pool.draw(batch_size, rng)
         if pool is not None:
-            yield from pool.drain(batch_size, rng)
+            yield from pool.drain(batch_size, rng, self.scene_batches)
 
     def sample(self, split: Split = "train", max_episodes: int = 4096,
                fields: Sequence[str] = BATCH_FIELDS) -> dict[str, np.ndarray]:

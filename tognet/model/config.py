@@ -81,6 +81,14 @@ class LossConfig(Config):
         "model.",
         ge=0,
     )
+    weight_rank: float = doc(
+        0.0,
+        "Weight of the within-scene ranking term (beyond the paper): over every pair of trials of one scene "
+        "where one did the task and the other did not, the logistic loss of the difference of their log "
+        "Q_G * Q_T|G (the score a planner ranks a scene's candidates by), averaged over the batch's pairs. "
+        "Batches are then made of whole scenes. 0: off.",
+        ge=0, omit_default=True,
+    )
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,12 @@ An action-conditioned task stream (``ArchConfig.task_head = "action"``, beyond t
 progress; its Q_T|G is then Q_T|G,a at the trial's own action, so the task term is trained on every trial
 that held the tool, failures included, as before.
 
+A within-scene ranking term (``LossConfig.weight_rank``, beyond the paper; :func:`scene_rank_sum`): the
+cross-entropies score each trial alone, but a planner only compares the candidates of one scene, so a model
+can be well calibrated across scenes and still rank a scene's candidates badly. Over pairs (i, j) of one
+scene with S_T,i = 1 and S_T,j = 0 it adds ``weight_rank * mean log(1 + exp(s_j - s_i))``, s = log Q_G +
+log Q_T|G (members: log of their mean probability, as the planner averages them).
+
 Reductions over a batch of N episodes:
 
 - ``"batch"`` (default): each term is summed over its masked episodes and divided by N, i.e. the paper's
@@ -29,6 +35,7 @@ where an angle would wrap. An action space spanning a full turn would need a per
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import torch
@@ -71,15 +78,20 @@ def tognet_loss(
     config: LossConfig | None = None,
     progress_logit: torch.Tensor | None = None,
     progress: torch.Tensor | None = None,
+    scene: torch.Tensor | None = None,
 ) -> dict[str, torch.Tensor]:
-    """The loss and its components (all scalars): ``loss``, ``grasp``, ``task``, ``action``, ``progress``
-    (weighted terms before summing; ``progress`` 0 without ``progress_logit``) and the mask sizes
-    ``n_grasp_success``, ``n_task_success``.
+    """The loss and its components (all scalars): ``loss``, ``grasp``, ``task``, ``action``, ``progress``,
+    ``rank`` (weighted terms before summing; ``progress`` 0 without ``progress_logit``, ``rank`` 0 without
+    ``scene`` or with ``weight_rank`` 0) and the mask sizes ``n_grasp_success``, ``n_task_success``.
 
     ``action_pred`` and ``action`` are (N, 4) in the same (stored) units.
     """
     config = config or LossConfig()
     n = max(int(grasp_success.shape[0]), 1)
+    rank = torch.zeros((), dtype=q_g_logit.dtype, device=q_g_logit.device)
+    if config.weight_rank > 0 and scene is not None:
+        s_r, n_r = scene_rank_sum(q_g_logit, q_tg_logit, task_success, scene)
+        rank = config.weight_rank * s_r / n_r.clamp_min(1.0)
     s_g, s_t, s_a, n_g, n_t = masked_sums(q_g_logit, q_tg_logit, action_pred, grasp_success, task_success,
                                           action, config.action_sigma)
     grasp, task, act = reduce_sums(s_g, s_t, s_a, n, n_g, n_t, config)
@@ -88,14 +100,35 @@ def tognet_loss(
         s_p, n_p = progress_sum(progress_logit, progress, grasp_success)
         prog = config.weight_progress * s_p / (n if config.reduction == "batch" else n_p.clamp_min(1.0))
     return {
-        "loss": grasp + task + act + prog,
+        "loss": grasp + task + act + prog + rank,
         "grasp": grasp,
         "task": task,
         "action": act,
         "progress": prog,
+        "rank": rank,
         "n_grasp_success": n_g,
         "n_task_success": n_t,
     }
+
+
+def log_q_task(q_g_logit: torch.Tensor, q_tg_logit: torch.Tensor) -> torch.Tensor:
+    """log(Q_G * Q_T|G) per episode from logits (N,) and (N,) or (N, members) (the members' mean
+    probability), computed without leaving log space."""
+    log_tg = F.logsigmoid(q_tg_logit)
+    if log_tg.dim() == 2:
+        log_tg = torch.logsumexp(log_tg, dim=1) - math.log(log_tg.shape[1])
+    return F.logsigmoid(q_g_logit) + log_tg
+
+
+def scene_rank_sum(q_g_logit: torch.Tensor, q_tg_logit: torch.Tensor, task_success: torch.Tensor,
+                   scene: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Sum over the pairs (i, j) of one scene with S_T,i = 1 and S_T,j = 0 of log(1 + exp(s_j - s_i)),
+    s = log Q_G Q_T|G (:func:`log_q_task`), and the number of such pairs. O(N^2) in the batch size."""
+    s = log_q_task(q_g_logit, q_tg_logit)
+    won = task_success > 0.5
+    pairs = (scene[:, None] == scene[None, :]) & won[:, None] & ~won[None, :]
+    total = F.softplus(s[None, :] - s[:, None])[pairs].sum()
+    return total, pairs.sum().to(total.dtype)
 
 
 def progress_sum(progress_logit: torch.Tensor, progress: torch.Tensor, grasp_success: torch.Tensor
@@ -154,4 +187,4 @@ def q_task(q_g: torch.Tensor, q_tg: torch.Tensor) -> torch.Tensor:
     return q_tg * q_g
 
 
-COMPONENTS: Sequence[str] = ("loss", "grasp", "task", "action", "progress")
+COMPONENTS: Sequence[str] = ("loss", "grasp", "task", "action", "progress", "rank")

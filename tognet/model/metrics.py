@@ -43,6 +43,25 @@ def expected_calibration_error(labels: np.ndarray, probs: np.ndarray, bins: int 
     return float(ece)
 
 
+def within_scene_auc(scene: np.ndarray, labels: np.ndarray, scores: np.ndarray) -> tuple[float | None, int]:
+    """The share of (success, failure) pairs of one scene where the success scores higher (ties half),
+    over all such pairs of all scenes, and their number: how well a score ranks the candidates a planner
+    compares. (None, 0) when no scene has both outcomes."""
+    scene = np.asarray(scene)
+    labels = np.asarray(labels).astype(bool)
+    scores = np.asarray(scores, dtype=np.float64)
+    wins = pairs = 0.0
+    order = np.argsort(scene, kind="stable")
+    bounds = np.flatnonzero(np.diff(scene[order])) + 1
+    for rows in np.split(order, bounds):
+        y, x = labels[rows], scores[rows]
+        if y.any() and not y.all():
+            d = x[y][:, None] - x[~y][None, :]
+            wins += (d > 0).sum() + 0.5 * (d == 0).sum()
+            pairs += d.size
+    return (float(wins / pairs), int(pairs)) if pairs else (None, 0)
+
+
 def binary_metrics(labels: np.ndarray, probs: np.ndarray) -> dict[str, Any]:
     """AUC, accuracy, ECE, positive rate and count for one head."""
     labels = np.asarray(labels)
@@ -62,10 +81,12 @@ def head_metrics(
     grasp_success: np.ndarray,
     task_success: np.ndarray,
     action: np.ndarray,
+    scene: np.ndarray | None = None,
 ) -> dict[str, Any]:
     """Metrics of the three heads: ``grasp`` (Q_G on all episodes), ``task_given_grasp`` (Q_T|G on
-    episodes with S_G = 1), ``task`` (Q_T = Q_T|G * Q_G on all episodes) and ``action`` (error of the
-    predicted mean on episodes with S_T = 1, per dim: mean absolute error and RMSE, stored units)."""
+    episodes with S_G = 1), ``task`` (Q_T = Q_T|G * Q_G on all episodes; with ``scene`` keys also its
+    ``scene_auc``, :func:`within_scene_auc`) and ``action`` (error of the predicted mean on episodes with
+    S_T = 1, per dim: mean absolute error and RMSE, stored units)."""
     s_g = np.asarray(grasp_success).astype(bool)
     s_t = np.asarray(task_success).astype(bool)
     out: dict[str, Any] = {
@@ -73,6 +94,8 @@ def head_metrics(
         "task_given_grasp": binary_metrics(s_t[s_g], q_tg[s_g]),
         "task": binary_metrics(s_t, q_g * q_tg),
     }
+    if scene is not None:
+        out["task"]["scene_auc"], out["task"]["scene_pairs"] = within_scene_auc(scene, s_t, q_g * q_tg)
     if s_t.any():
         err = action_pred[s_t] - action[s_t]
         out["action"] = {

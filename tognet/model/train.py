@@ -45,7 +45,14 @@ from tognet.model.checkpoint import (
     save_checkpoint,
 )
 from tognet.model.config import TrainConfig
-from tognet.model.loss import masked_sums, progress_sum, reduce_sums, resolve_loss, tognet_loss
+from tognet.model.loss import (
+    masked_sums,
+    progress_sum,
+    reduce_sums,
+    resolve_loss,
+    scene_rank_sum,
+    tognet_loss,
+)
 from tognet.model.metrics import head_metrics
 from tognet.model.network import TOGNet, normalization_from_data
 from tognet.model.runtime import select_device, set_threads, tune_allocator
@@ -104,9 +111,9 @@ def evaluate(model: TOGNet, batches: Iterable[Batch], config: TrainConfig, progr
     device = next(model.parameters()).device
     loss_config = resolve_loss(config.loss, model.action_std)
     n = 0
-    sums = torch.zeros(4, dtype=torch.float64)
-    counts = torch.zeros(3, dtype=torch.float64)
-    q_g, q_tg, act, s_g, s_t, a_true = [], [], [], [], [], []
+    sums = torch.zeros(5, dtype=torch.float64)
+    counts = torch.zeros(4, dtype=torch.float64)
+    q_g, q_tg, act, s_g, s_t, a_true, scene = [], [], [], [], [], [], []
     for batch in tqdm(batches, total=total, desc="evaluating", unit="batch", disable=not progress,
                       leave=False, mininterval=1.0):
         b = batch.to(device)
@@ -120,6 +127,11 @@ def evaluate(model: TOGNet, batches: Iterable[Batch], config: TrainConfig, progr
             s_p, n_p = progress_sum(out["progress_logit"], b.progress, b.s_g)
             sums[3] += float(s_p)
             counts[2] += float(n_p)
+        if b.scene is not None:
+            s_r, n_r = scene_rank_sum(out["q_g_logit"], out["q_tg_logit"], b.s_t, b.scene)
+            sums[4] += float(s_r)
+            counts[3] += float(n_r)
+            scene.append(batch.scene.cpu())
         q_g.append(torch.sigmoid(out["q_g_logit"]).cpu())
         q_tg.append(_probability(out["q_tg_logit"]).cpu())
         act.append(a_pred.cpu())
@@ -133,11 +145,13 @@ def evaluate(model: TOGNet, batches: Iterable[Batch], config: TrainConfig, progr
     g, t, a = reduce_sums(sums[0], sums[1], sums[2], n, counts[0], counts[1], loss_config)
     p = loss_config.weight_progress * sums[3] / (n if loss_config.reduction == "batch"
                                                  else max(float(counts[2]), 1.0))
-    result.update(loss=float(g + t + a + p), grasp=float(g), task=float(t), action=float(a),
-                  progress=float(p), classification=float(g + t))
+    r = loss_config.weight_rank * sums[4] / max(float(counts[3]), 1.0)
+    result.update(loss=float(g + t + a + p + r), grasp=float(g), task=float(t), action=float(a),
+                  progress=float(p), rank=float(r), classification=float(g + t))
     result["metrics"] = head_metrics(
         torch.cat(q_g).numpy(), torch.cat(q_tg).numpy(), torch.cat(act).numpy(),
         torch.cat(s_g).numpy(), torch.cat(s_t).numpy(), torch.cat(a_true).numpy(),
+        torch.cat(scene).numpy() if len(scene) == len(s_t) else None,
     )
     return result
 
@@ -342,7 +356,7 @@ def _open_data(data_dirs: Sequence[str | Path], task: str, config: TrainConfig,
     start's crops match the data's."""
     stream = EpisodeStream(data_dirs, task, val_fraction=config.val_fraction, seed=config.seed,
                            shuffle_buffer=config.shuffle_buffer, skip_bad=config.skip_bad_shards,
-                           progress=progress)
+                           progress=progress, scene_batches=config.loss.weight_rank > 0)
     counts = stream.counts()
     if counts["valid"] < 2:
         raise TrainingError(f"only {counts['valid']} valid episodes in {list(map(str, data_dirs))}")
@@ -434,7 +448,7 @@ def _train_epoch(state: _State, data: _Data, config: TrainConfig, loss_config: A
     """One pass over the training episodes; the mean loss terms and the speed."""
     model, optimizer = state.model, state.optimizer
     model.train()
-    sums = {k: 0.0 for k in ("loss", "grasp", "task", "action", "progress")}
+    sums = {k: 0.0 for k in ("loss", "grasp", "task", "action", "progress", "rank")}
     used = 0
     t0 = time.perf_counter()
     bar = tqdm(data.stream.batches("train", config.batch_size, epoch=epoch),
@@ -448,7 +462,7 @@ def _train_epoch(state: _State, data: _Data, config: TrainConfig, loss_config: A
         out_b = _forward(model, b)
         parts = tognet_loss(out_b["q_g_logit"], out_b["q_tg_logit"],
                             model.denormalize_action(out_b["action_norm"]), b.s_g, b.s_t, b.action,
-                            loss_config, out_b.get("progress_logit"), b.progress)
+                            loss_config, out_b.get("progress_logit"), b.progress, b.scene)
         optimizer.zero_grad(set_to_none=True)
         parts["loss"].backward()
         optimizer.step()
@@ -632,7 +646,8 @@ def _log_epoch(log: Callable[[str], None], epoch: int, train_stats: dict[str, An
     m = val_stats.get("metrics", {})
     log(f"epoch {epoch + 1}: train loss {train_stats['loss']:.4f}, val loss "
         f"{val_stats.get('loss', float('nan')):.4f}, Q_G AUC {_fmt(m.get('grasp', {}).get('auc'))}, "
-        f"Q_T|G AUC {_fmt(m.get('task_given_grasp', {}).get('auc'))}"
+        f"Q_T|G AUC {_fmt(m.get('task_given_grasp', {}).get('auc'))}, "
+        f"within-scene AUC {_fmt(m.get('task', {}).get('scene_auc'))}"
         f"{' *' if improved else ''} ({train_stats['samples_per_s']:.0f} samples/s)")
 
 
