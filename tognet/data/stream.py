@@ -157,12 +157,11 @@ class _Pool:
         return batch
 
     def drain(self, batch_size: int, rng: np.random.Generator, scenes: bool = False) -> Iterator[Batch]:
+        if scenes:
+            while self.n:
+                yield self.draw_scenes(batch_size, rng)
+            return
         perm = rng.permutation(self.n)
-        if scenes:  # scenes in a random order, each one's rows together (one may straddle two batches)
-            _, group = np.unique(self.cols["scene"][: self.n], return_inverse=True)
-            rank = np.empty(group.max() + 1, dtype=np.int64)
-            rank[_first_seen(group.reshape(-1)[perm])] = np.arange(len(rank))
-            perm = perm[np.argsort(rank[group.reshape(-1)[perm]], kind="stable")]
         for lo in range(0, self.n, batch_size):
             yield Batch.from_columns(self.cols, perm[lo : lo + batch_size])
         self.n = 0
