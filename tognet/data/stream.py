@@ -93,8 +93,8 @@ class Batch:
 
 def scene_keys(object_id: np.ndarray, scene_seed: np.ndarray) -> np.ndarray:
     """An int64 key per episode, equal for the trials of one scene (one object, one scene seed): the
-    object id's CRC-32 in the high bits, the seed's low 32 bits below (a collision needs two objects with
-    one CRC-32 and seeds equal modulo 2**32)."""
+    object id's CRC-32 shifted up by 31 bits (so the key stays positive), XOR the seed's low 32 bits. Two
+    scenes share a key only by a hash collision (keys are compared within one shuffle buffer)."""
     ids, inverse = np.unique(np.asarray(object_id), return_inverse=True)
     crc = np.array([zlib.crc32(str(i).encode()) for i in ids], dtype=np.int64)[inverse.reshape(-1)]
     low = np.asarray(scene_seed, dtype=np.int64) & 0xFFFFFFFF
