@@ -25,7 +25,6 @@ draws come from the generator given, so a search is reproducible. Pure numpy aro
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -34,7 +33,6 @@ from numpy.typing import NDArray
 
 from tognet.data.format import ACTION_SOURCES, GRASP_SOURCES
 from tognet.policies.config import ActionSearchConfig
-from tognet.policies.keep_out import KeepOutPenalty, footprints
 from tognet.policies.view import ActionPick, GraspPick, SceneView
 
 
@@ -56,30 +54,11 @@ class SearchResult:
         return self.q_g * self.q_t_given_ga
 
 
-#: ``penalty(rows, actions) -> (M, K)``: what is taken off the ordering score of actions (M, K, 4) for the
-#: candidates ``rows`` (M,) (:class:`tognet.policies.keep_out.KeepOutPenalty`).
-Penalty = Callable[[NDArray[np.intp], NDArray[np.float64]], NDArray[np.float64]]
-
-
-def view_penalty(view: SceneView, grasps: NDArray[np.float64], config: ActionSearchConfig) -> Penalty | None:
-    """The keep-out penalty for ``grasps`` of the view's scene, None when ``config.keep_out`` is off or
-    the task fixes no props."""
-    if not config.keep_out or view.task is None or not view.task.keep_out():
-        return None
-    return KeepOutPenalty(footprints(view.scene, grasps), view.task, config.keep_out_margin,
-                          config.keep_out_penalty)
-
-
-def _order(scores: Any, config: ActionSearchConfig, rows: NDArray[np.intp] | None = None,
-           actions: NDArray[np.float64] | None = None, penalty: Penalty | None = None) -> NDArray[np.float64]:
+def _order(scores: Any, config: ActionSearchConfig) -> NDArray[np.float64]:
     """How actions are ranked: predicted success, less ``pessimism`` times the members' spread, plus
-    ``progress_weight`` times the predicted progress, less the ``penalty`` of ``actions`` (M, K, 4) of
-    candidates ``rows`` when given."""
-    order = (np.asarray(scores.success, np.float64) - config.pessimism * np.asarray(scores.spread, np.float64)
-             + config.progress_weight * np.asarray(scores.progress, np.float64))
-    if penalty is None or rows is None or actions is None:
-        return order
-    return order - penalty(rows, actions)
+    ``progress_weight`` times the predicted progress."""
+    return (np.asarray(scores.success, np.float64) - config.pessimism * np.asarray(scores.spread, np.float64)
+            + config.progress_weight * np.asarray(scores.progress, np.float64))
 
 
 def _bounds(mean: NDArray[np.float64], low: NDArray[np.float64], high: NDArray[np.float64],
@@ -93,13 +72,12 @@ def _bounds(mean: NDArray[np.float64], low: NDArray[np.float64], high: NDArray[n
 
 
 def rate_candidates(model: Any, crops: NDArray[np.float32], z: NDArray[np.float32], low: NDArray[np.float64],
-                    high: NDArray[np.float64], config: ActionSearchConfig, rng: np.random.Generator,
-                    penalty: Penalty | None = None
+                    high: NDArray[np.float64], config: ActionSearchConfig, rng: np.random.Generator
                     ) -> tuple[Any, NDArray[np.float64], NDArray[np.float64], tuple[NDArray[np.float64],
                                                                                    NDArray[np.float64]]]:
     """Encode N candidates and rate each on ``rate_samples`` actions: (encoded inputs, the best rating
     action per candidate (N, 4), its predicted success (N,), the per-candidate search bounds); Q_G is in
-    the encoded inputs. ``penalty``: taken off each action's order (:data:`Penalty`)."""
+    the encoded inputs."""
     enc = model.encode(crops, z)
     n = len(enc)
     k = max(1, config.rate_samples)
@@ -112,25 +90,24 @@ def rate_candidates(model: Any, crops: NDArray[np.float32], z: NDArray[np.float3
     box = np.broadcast_to(rng.uniform(low, high, (k_box, 4)), (n, k_box, 4))
     actions = np.clip(np.concatenate([mean[:, None, :], local, box], axis=1), lo[:, None], hi[:, None])
     scores = model.score_actions(enc, actions)
+    best = _order(scores, config).argmax(axis=1)
     rows = np.arange(n)
-    best = _order(scores, config, rows, actions, penalty).argmax(axis=1)
     return enc, actions[rows, best], scores.success[rows, best].astype(np.float64), (lo, hi)
 
 
 def refine_actions(model: Any, enc: Any, rows: NDArray[np.intp], start: NDArray[np.float64],
                    low: NDArray[np.float64], high: NDArray[np.float64], config: ActionSearchConfig,
-                   rng: np.random.Generator, penalty: Penalty | None = None
-                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+                   rng: np.random.Generator) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Cross-entropy search of the action for the encoded candidates ``rows`` (M,), each started at its
     ``start`` action (M, 4), within per-row bounds ``low``/``high`` (M, 4): the best action found per
-    row (M, 4) and its predicted success (M,). ``penalty``: taken off each action's order."""
+    row (M, 4) and its predicted success (M,)."""
     m = len(rows)
     mu = np.asarray(start, np.float64).copy()
     low, high = np.broadcast_to(low, (m, 4)), np.broadcast_to(high, (m, 4))
     std = np.maximum((high - low) / 4.0, np.asarray(config.min_std))
     best_a = mu.copy()
     s0 = model.score_actions(enc, mu[:, None, :], rows)
-    best_s, best_o = s0.success[:, 0].astype(np.float64), _order(s0, config, rows, mu[:, None], penalty)[:, 0]
+    best_s, best_o = s0.success[:, 0].astype(np.float64), _order(s0, config)[:, 0]
     n_elite = max(2, int(round(config.samples * config.elite_fraction)))
     floor = np.asarray(config.min_std)
     for _ in range(max(0, config.iterations)):
@@ -138,7 +115,7 @@ def refine_actions(model: Any, enc: Any, rows: NDArray[np.intp], start: NDArray[
                         low[:, None], high[:, None])
         draws[:, 0] = best_a  # the best so far stays in the running
         scores = model.score_actions(enc, draws, rows)
-        success, order = scores.success, _order(scores, config, rows, draws, penalty)
+        success, order = scores.success, _order(scores, config)
         top = np.argsort(-order, axis=1)[:, :n_elite]
         elite = np.take_along_axis(draws, top[:, :, None], axis=1)
         mu, std = elite.mean(axis=1), np.maximum(elite.std(axis=1), floor)
@@ -152,14 +129,13 @@ def refine_actions(model: Any, enc: Any, rows: NDArray[np.intp], start: NDArray[
                                   axis=1)
     if config.robust_samples > 0 and config.iterations > 0:
         pool = np.concatenate([best_a[:, None], last], axis=1)  # (M, C, 4), the best so far first
-        best_a, best_s = _robust_choice(model, enc, rows, pool, low, high, config, rng, penalty)
+        best_a, best_s = _robust_choice(model, enc, rows, pool, low, high, config, rng)
     return best_a, best_s
 
 
 def _robust_choice(model: Any, enc: Any, rows: NDArray[np.intp], pool: NDArray[np.float64],
                    low: NDArray[np.float64], high: NDArray[np.float64], config: ActionSearchConfig,
-                   rng: np.random.Generator, penalty: Penalty | None = None
-                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+                   rng: np.random.Generator) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Of each row's candidate actions ``pool`` (M, C, 4), the one whose order score averaged over
     ``robust_samples`` perturbations (the same ones for every candidate) is highest; (M, 4) and the
     averaged success (M,)."""
@@ -167,9 +143,8 @@ def _robust_choice(model: Any, enc: Any, rows: NDArray[np.intp], pool: NDArray[n
     k = config.robust_samples
     noise = rng.standard_normal((k, 4)) * np.asarray(config.robust_std)
     shaken = np.clip(pool[:, :, None, :] + noise[None, None], low[:, None, None], high[:, None, None])
-    flat = shaken.reshape(m, c * k, 4)
-    scores = model.score_actions(enc, flat, rows)
-    order = _order(scores, config, rows, flat, penalty).reshape(m, c, k).mean(axis=2)
+    scores = model.score_actions(enc, shaken.reshape(m, c * k, 4), rows)
+    order = _order(scores, config).reshape(m, c, k).mean(axis=2)
     success = np.asarray(scores.success, np.float64).reshape(m, c, k).mean(axis=2)
     pick = order.argmax(axis=1)
     r = np.arange(m)
@@ -177,37 +152,29 @@ def _robust_choice(model: Any, enc: Any, rows: NDArray[np.intp], pool: NDArray[n
 
 
 def search(model: Any, crops: NDArray[np.float32], z: NDArray[np.float32], low: NDArray[np.float64],
-           high: NDArray[np.float64], config: ActionSearchConfig, rng: np.random.Generator,
-           penalty: Penalty | None = None) -> SearchResult:
+           high: NDArray[np.float64], config: ActionSearchConfig, rng: np.random.Generator) -> SearchResult:
     """Rate every candidate by its best action, refine the actions of the best-rated ones and return
-    them ranked by Q_G * Q_T|G,a (see the module docstring), less the ``penalty`` of the action each is
-    rated and ranked with."""
+    them ranked by Q_G * Q_T|G,a (see the module docstring)."""
     low, high = np.asarray(low, np.float64), np.asarray(high, np.float64)
-    enc, rate_a, rate_s, (lo, hi) = rate_candidates(model, crops, z, low, high, config, rng, penalty)
+    enc, rate_a, rate_s, (lo, hi) = rate_candidates(model, crops, z, low, high, config, rng)
     q_g = enc.q_g.astype(np.float64)
-    rating = q_g * rate_s - _own_penalty(penalty, np.arange(len(enc)), rate_a)
+    rating = q_g * rate_s
     rows = np.argsort(-rating, kind="stable")[: max(1, config.refine_grasps)]
-    acts, success = refine_actions(model, enc, rows, rate_a[rows], lo[rows], hi[rows], config, rng, penalty)
-    value = q_g[rows] * success - _own_penalty(penalty, rows, acts)
+    acts, success = refine_actions(model, enc, rows, rate_a[rows], lo[rows], hi[rows], config, rng)
+    value = q_g[rows] * success
     order = np.argsort(-value, kind="stable")
     return SearchResult(rows[order], acts[order], success[order], q_g[rows][order], rating)
 
 
-def _own_penalty(penalty: Penalty | None, rows: NDArray[np.intp], actions: NDArray[np.float64]
-                 ) -> NDArray[np.float64] | float:
-    """The penalty of one action (M, 4) per candidate ``rows``, 0 without a penalty."""
-    return 0.0 if penalty is None else penalty(rows, actions[:, None])[:, 0]
-
-
 def best_actions(model: Any, crops: NDArray[np.float32], z: NDArray[np.float32], low: NDArray[np.float64],
-                 high: NDArray[np.float64], config: ActionSearchConfig, rng: np.random.Generator,
-                 penalty: Penalty | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+                 high: NDArray[np.float64], config: ActionSearchConfig, rng: np.random.Generator
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The searched action of each of N given grasps (rated, then refined): (N, 4) and Q_T|G,a (N,)."""
     low, high = np.asarray(low, np.float64), np.asarray(high, np.float64)
     if len(crops) == 0:
         return np.zeros((0, 4)), np.zeros(0)
-    enc, rate_a, _, (lo, hi) = rate_candidates(model, crops, z, low, high, config, rng, penalty)
-    return refine_actions(model, enc, np.arange(len(enc)), rate_a, lo, hi, config, rng, penalty)
+    enc, rate_a, _, (lo, hi) = rate_candidates(model, crops, z, low, high, config, rng)
+    return refine_actions(model, enc, np.arange(len(enc)), rate_a, lo, hi, config, rng)
 
 
 class ActionSearchGrasps:
@@ -227,9 +194,8 @@ class ActionSearchGrasps:
                 raise ValueError("the action search needs a task (the grasp-only task has no actions)")
             grasps = view.candidates.grasps
             crops, z = view.crops(grasps)
-            penalty = view_penalty(view, grasps, self.config)
             view.cache[key] = (grasps, search(self.model, crops, z, task.action_low, task.action_high,
-                                              self.config, rng, penalty))
+                                              self.config, rng))
         return view.cache[key]
 
     def ranked(self, view: SceneView, rng: np.random.Generator) -> GraspPick:
@@ -294,8 +260,7 @@ class ActionSearchActions:
         if todo.any():
             uniq, inverse = np.unique(grasps[todo], axis=0, return_inverse=True)
             crops, z = view.crops(uniq)
-            found, _ = best_actions(self.model, crops, z, task.action_low, task.action_high, self.config, rng,
-                                    view_penalty(view, uniq, self.config))
+            found, _ = best_actions(self.model, crops, z, task.action_low, task.action_high, self.config, rng)
             acts[todo] = found[inverse.reshape(-1)]
         return acts
 

@@ -68,25 +68,6 @@ class ActionSearchConfig(Config):
         "Weight of the predicted progress added to the predicted success when ordering actions: breaks "
         "ties where every action is unlikely to succeed, small enough not to trade success for it.",
     )
-    keep_out: bool = doc(
-        False,
-        "Take ``keep_out_penalty`` off every action that would bring the tool, as the depth image shows it "
-        "under the grasp, down within ``keep_out_margin`` of a prop the task fixes relative to its reference "
-        "point (pulling's can; tognet.policies.keep_out). Tasks without such props are not affected.",
-        omit_default=True,
-    )
-    keep_out_margin: float = doc(
-        0.02,
-        "Clearance (m) from a prop's side below which an action is penalised: the tool's slip in the hand "
-        "and the execution noise (a few mm, 2 degrees at 20 cm) that the image cannot show.",
-        ge=0, omit_default=True,
-    )
-    keep_out_penalty: float = doc(
-        1.0,
-        "Taken off the ordering score of such an action: 1 puts it below every clear action (predicted "
-        "success is at most 1), smaller only demotes it.",
-        ge=0, omit_default=True,
-    )
 
 
 @dataclass(frozen=True)

@@ -73,19 +73,6 @@ class SceneSubset:
         return self.fact is None or facts.get(self.fact) == self.value
 
 
-@dataclass(frozen=True)
-class KeepOut:
-    """A prop whose place the task's reference point fixes, as a vertical cylinder the tool must not come
-    down onto: its axis at ``offset`` (x, y; m) from the reference point, its ``radius`` (m) and its span
-    in z (``bottom``, ``top``; m relative to the reference point). Part of the task's set-up, as the
-    reference point is: what a robot is told, not what the simulator measures."""
-
-    offset: tuple[float, float]
-    radius: float
-    bottom: float
-    top: float
-
-
 class Task:
     """Base class of a task; subclasses set ``name`` and ``config_class`` and implement the abstract
     methods."""
@@ -148,11 +135,6 @@ class Task:
         a = self.check_action(action)
         offset = np.asarray(self.config.nominal_offset, dtype=np.float64)
         return np.asarray(reference, dtype=np.float64) + offset + a[:3], float(self.config.nominal_yaw + a[3])
-
-    def keep_out(self) -> tuple[KeepOut, ...]:
-        """The props at fixed places relative to the reference point that the tool must not be brought
-        down onto at the start pose (none here)."""
-        return ()
 
     def scene_facts(self, layout: dict[str, Any]) -> dict[str, Any]:
         """Facts of one scene's layout that the evaluation records with each trial and chooses

@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tognet.config import Config, doc
-from tognet.tasks.base import FailureReason, KeepOut, Motion, Task, TaskOutcome
+from tognet.tasks.base import FailureReason, Motion, Task, TaskOutcome
 
 
 @dataclass(frozen=True)
@@ -109,11 +109,6 @@ class Pulling(Task):
         """The can's centre (z at its mid-height)."""
         x, y, _ = layout["can"]
         return np.array([x, y, 0.5 * self.config.can_height])
-
-    def keep_out(self) -> tuple[KeepOut, ...]:
-        """The can: at the reference point, from the table to its top."""
-        h = self.config.can_height
-        return (KeepOut((0.0, 0.0), self.config.can_radius, -0.5 * h, 0.5 * h),)
 
     def primitive(self) -> list[Motion]:
         """A straight pull along world -x."""
