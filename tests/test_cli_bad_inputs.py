@@ -187,6 +187,7 @@ def ws(tmp_path_factory):
     config("train_val.json", {"val_fraction": 1.5})
     config("train_seed.json", {"seed": -3})
     config("train_rank.json", {"loss": {"weight_rank": -1.0}})
+    config("train_tilt.json", {"loss": {"max_lift_tilt": -0.2}})
     config("collect_trials.json", {"trials_per_scene": 0})
     config("collect_seed.json", {"seed": -1})
     config("eval_scenes.json", {"scenes_per_job": 0})
@@ -416,6 +417,7 @@ CASES: dict[str, Case] = {
     "train-val-fraction": Case(f"{T} --out @out --config @train_val.json", "val_fraction"),
     "train-config-seed-neg": Case(f"{T} --out @out --config @train_seed.json", "seed"),
     "train-config-rank-neg": Case(f"{T} --out @out --config @train_rank.json", "weight_rank"),
+    "train-config-tilt-neg": Case(f"{T} --out @out --config @train_tilt.json", "max_lift_tilt"),
     "train-epochs-0": Case(f"{T} --out @out --epochs 0", "--epochs"),
     "train-seed-neg": Case(f"{T} --out @out --seed -1", "--seed"),
     "train-device": Case(f"{T} --out @out --device tpu", "tpu"),

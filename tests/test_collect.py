@@ -61,6 +61,7 @@ def test_job_is_deterministic_and_its_records_replay(objects):
         res = sim.execute(grasp, c["action"][k].astype(np.float64), seed=int(c["trial"][k]))
         assert (res.grasp_success, res.task_success, res.failure.value) == (
             bool(c["grasp_success"][k]), bool(c["task_success"][k]), str(c["failure"][k]))
+        assert c["lift_tilt"][k] == pytest.approx(res.info.get("lift_tilt", -1.0), rel=1e-6)
     assert c["crop"].dtype == np.float16 and np.all(np.isfinite(c["crop"].astype(np.float32)))
 
 

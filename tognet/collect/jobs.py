@@ -108,6 +108,7 @@ def trial_records(view: SceneView, grasps: NDArray[np.float64], actions: NDArray
         "action_source": action_source,
         "score": score.astype(np.float32),
         "progress": np.array([_progress(view.task, r) for r in results], dtype=np.float32),
+        "lift_tilt": np.array([r.info.get("lift_tilt", -1.0) for r in results], dtype=np.float32),
     }
 
 

@@ -21,9 +21,9 @@ from tognet.grasping.crops import CropConfig
 from tognet.tasks.base import FailureReason
 
 #: Version of the shard/manifest layout; bump on any incompatible change.
-FORMAT_VERSION = 3
+FORMAT_VERSION = 4
 #: Versions this code reads (older shards get the new fields' defaults).
-READABLE_VERSIONS = (1, 2, 3)
+READABLE_VERSIONS = (1, 2, 3, 4)
 #: Side of a stored crop, pixels: the default CropConfig's (the one place the crop size is set).
 CROP_SIZE = CropConfig().size
 MANIFEST = "manifest.json"
@@ -46,6 +46,7 @@ FIELDS: dict[str, tuple[np.dtype, tuple[int, ...]]] = {
     "action_source": (np.dtype(np.int8), ()),
     "score": (np.dtype(np.float32), ()),
     "progress": (np.dtype(np.float32), ()),
+    "lift_tilt": (np.dtype(np.float32), ()),
 }
 #: int8 codes of where an episode's grasp came from (``grasp_source``) and its action (``action_source``);
 #: stored in every manifest. Collection policies name themselves with these.
@@ -70,7 +71,7 @@ def failure_code(reason: object) -> int:
 
 #: Fields a caller may leave out of :meth:`ShardWriter.add`, with their default value.
 DEFAULTS: dict[str, Any] = {"valid": 1, "failure": 0, "trial": 0, "grasp_source": 0, "action_source": 0,
-                            "score": -1.0, "progress": -1.0}
+                            "score": -1.0, "progress": -1.0, "lift_tilt": -1.0}
 
 
 class DatasetError(TognetError):
@@ -96,10 +97,11 @@ class EpisodeArrays:
     action_source: np.ndarray = None  # type: ignore[assignment]
     score: np.ndarray = None  # type: ignore[assignment]
     progress: np.ndarray = None  # type: ignore[assignment]
+    lift_tilt: np.ndarray = None  # type: ignore[assignment]  (rad; -1: not measured)
 
     def __post_init__(self) -> None:
         n = int(np.asarray(self.z).shape[0])
-        for name in ("grasp_source", "action_source", "score", "progress"):
+        for name in ("grasp_source", "action_source", "score", "progress", "lift_tilt"):
             if getattr(self, name) is None:
                 setattr(self, name, np.full((n,), DEFAULTS[name], dtype=FIELDS[name][0]))
 

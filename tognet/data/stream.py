@@ -45,7 +45,7 @@ from tognet.data.format import DatasetError
 Split = Literal["train", "val", "all"]
 #: Columns a batch carries (``scene`` is made from ``object_id`` and ``scene_seed`` when read), and the
 #: columns read to select a shard's rows.
-BATCH_FIELDS = ("crop", "z", "action", "grasp_success", "task_success", "progress", "scene")
+BATCH_FIELDS = ("crop", "z", "action", "grasp_success", "task_success", "progress", "lift_tilt", "scene")
 _SELECT_FIELDS = ("valid", "object_id")
 #: Seed stream of the shards sampled for normalisation statistics (distinct from the epochs' streams).
 _SAMPLE_STREAM = 0x6E6F726D
@@ -54,8 +54,9 @@ _SAMPLE_STREAM = 0x6E6F726D
 @dataclasses.dataclass
 class Batch:
     """One batch of episodes as float32 tensors: crop (B, 64, 64), z (B,), action (B, 4), s_g and s_t (B,)
-    (grasp and task success as 0/1), progress (B,) (the task's graded outcome in [0, 1], -1 unknown), and
-    scene (B,) int64, a key equal for the trials of one scene (:func:`scene_keys`; None when not read)."""
+    (grasp and task success as 0/1), progress (B,) (the task's graded outcome in [0, 1], -1 unknown),
+    scene (B,) int64, a key equal for the trials of one scene (:func:`scene_keys`; None when not read), and
+    lift_tilt (B,) (how far the tool swung in the fingers when lifted, rad; -1 unknown)."""
 
     crop: torch.Tensor
     z: torch.Tensor
@@ -64,6 +65,7 @@ class Batch:
     s_t: torch.Tensor
     progress: torch.Tensor
     scene: torch.Tensor | None = None
+    lift_tilt: torch.Tensor | None = None
 
     def __len__(self) -> int:
         return int(self.z.shape[0])
@@ -87,8 +89,18 @@ class Batch:
 
         progress = f32("progress") if "progress" in columns else torch.full_like(f32("z"), -1.0)
         scene = torch.from_numpy(np.ascontiguousarray(columns["scene"][sl])) if "scene" in columns else None
+        tilt = f32("lift_tilt") if "lift_tilt" in columns else torch.full_like(f32("z"), -1.0)
         return Batch(crop=f32("crop"), z=f32("z"), action=f32("action"), s_g=f32("grasp_success"),
-                     s_t=f32("task_success"), progress=progress, scene=scene)
+                     s_t=f32("task_success"), progress=progress, scene=scene, lift_tilt=tilt)
+
+    def steady_grasps(self, max_tilt: float) -> Batch:
+        """The batch with every grasp whose tool swung more than ``max_tilt`` (rad) in the fingers when
+        lifted counted as failed (its task label then unused, as for any failed grasp); unmeasured swings
+        (-1) keep their label. ``max_tilt`` 0: the batch itself."""
+        if max_tilt <= 0 or self.lift_tilt is None:
+            return self
+        swung = self.lift_tilt > max_tilt
+        return dataclasses.replace(self, s_g=torch.where(swung, torch.zeros_like(self.s_g), self.s_g))
 
 
 def scene_keys(object_id: np.ndarray, scene_seed: np.ndarray) -> np.ndarray:

@@ -81,6 +81,14 @@ class LossConfig(Config):
         "model.",
         ge=0,
     )
+    max_lift_tilt: float = doc(
+        0.0,
+        "Beyond the paper: a grasp whose tool swung more than this (rad) in the fingers when lifted (the "
+        "trial's lift_tilt) is labelled a failed grasp for Q_G, and its trial is left out of the task "
+        "stream, as for any failed grasp. A tool held far off balance swings and lands the task elsewhere "
+        "than the image says. 0: off (the paper's label, held clear of the table).",
+        ge=0, omit_default=True,
+    )
     weight_rank: float = doc(
         0.0,
         "Weight of the within-scene ranking term (beyond the paper): over every pair of trials of one scene "

@@ -116,6 +116,7 @@ def evaluate(model: TOGNet, batches: Iterable[Batch], config: TrainConfig, progr
     q_g, q_tg, act, s_g, s_t, a_true, scene = [], [], [], [], [], [], []
     for batch in tqdm(batches, total=total, desc="evaluating", unit="batch", disable=not progress,
                       leave=False, mininterval=1.0):
+        batch = batch.steady_grasps(config.loss.max_lift_tilt)
         b = batch.to(device)
         out = _forward(model, b)
         a_pred = model.denormalize_action(out["action_norm"])
@@ -458,7 +459,7 @@ def _train_epoch(state: _State, data: _Data, config: TrainConfig, loss_config: A
     for batch in bar:
         if len(batch) < 2:
             continue  # batch norm cannot train on a single sample (only the epoch's last batch can be)
-        b = batch.to(device)
+        b = batch.steady_grasps(config.loss.max_lift_tilt).to(device)
         out_b = _forward(model, b)
         parts = tognet_loss(out_b["q_g_logit"], out_b["q_tg_logit"],
                             model.denormalize_action(out_b["action_norm"]), b.s_g, b.s_t, b.action,

@@ -6,7 +6,9 @@
    palm pressing into the object on the way down fails the grasp), closes with a force limit, lifts the
    grasp centre to ``lift_height`` (at least ``min_lift``) and holds. S_G: both fingers touch the tool and
    its lowest point is clear of the table. ``info["in_hand"]`` is the tool's (3, 4) pose in the gripper
-   frame after the hold (x = jaw axis), for oracles and diagnostics.
+   frame after the hold (x = jaw axis), for oracles and diagnostics; ``info["lift_tilt"]`` how far the
+   tool's axis that was vertical at rest has tilted by then (rad): a tool held off balance swings in the
+   fingers.
 2. transport: to ``start_clearance`` above the start pose (task reference + nominal offset + action, yaw
    nominal + a_phi, with noise), then down to it. Touching a prop on the way (a contact: near the props
    every step's contacts are read, through MuJoCo contact sensors; or a prop moved by ``prop_moved``) is
@@ -131,6 +133,7 @@ class Trial(GripperControl):
         self._set_gripper(pos + np.array([0, 0, g.approach_height]), yaw, g.max_opening, q0)
         mujoco.mj_forward(self.model, self.data)
         props_at_rest = self._props.positions()
+        rest_rot = self.object_pose()[1]
         self._props.hold()  # props far from the tool leave the physics until it comes near
         # Approach, close, lift, hold.
         try:
@@ -153,6 +156,7 @@ class Trial(GripperControl):
         held = self._held()
         lifted = self._object_clear()
         info["in_hand"] = self._in_hand().tolist()
+        info["lift_tilt"] = _tilt(rest_rot, self.object_pose()[1])
         info["object_lift"] = float(self.data.xipos[self._obj_body][2] - self._scene["object_com"][2])
         grasp_ok = held and lifted
         self._grasp_held = grasp_ok
@@ -279,3 +283,9 @@ class Trial(GripperControl):
         """How far (m) the props moved at most since ``before`` (``TaskProps.positions``); 0 without props."""
         now = self._props.positions()
         return float(np.max(np.linalg.norm(now - before, axis=1))) if len(now) else 0.0
+
+
+def _tilt(before: NDArray[np.float64], after: NDArray[np.float64]) -> float:
+    """The angle (rad) between the world z axis and where the rotation from ``before`` to ``after``
+    (object rotations, world frame) takes it: how far the object's upright axis tilted."""
+    return float(np.arccos(np.clip((after @ before.T)[2, 2], -1.0, 1.0)))
