@@ -13,10 +13,12 @@ from tognet.data.episodes import read_columns
 from tognet.data.stream import Batch, EpisodeStream
 from tognet.data.synthetic import synthetic_episodes
 from tognet.data.writer import ShardWriter
+from tognet.geometry import rot_x, rot_z
 from tognet.model.config import ArchConfig, LossConfig, TrainConfig
 from tognet.model.train import train
 from tognet.objects.handmade import grasp_on_object, make_t_hammer
 from tognet.sim import SimConfig, Simulator
+from tognet.sim.trial import _tilt
 
 TINY = ArchConfig(stem_channels=8, block_channels=(8,), block_strides=(2,), bottleneck_channels=4,
                   z_features=8, head_hidden=32)
@@ -38,6 +40,13 @@ def test_a_heavy_slippery_hammer_held_by_its_end_swings_in_the_fingers(tmp_path)
     assert _swing(tmp_path, 6000.0, 0.3, "far_end") > 10.0
     assert _swing(tmp_path, 6000.0, 0.3, "head") < 5.0
     assert _swing(tmp_path, 1200.0, 0.8, "far_end") < 2.0
+
+
+def test_the_swing_is_the_tilt_of_the_upright_axis_not_a_turn_about_it():
+    rest = rot_z(0.7) @ rot_x(0.2)  # a tool resting a little tilted, at some yaw
+    assert _tilt(rest, rot_z(1.1) @ rest) == pytest.approx(0.0, abs=1e-9)  # turned in the hand: no swing
+    assert np.degrees(_tilt(rest, rot_x(np.radians(30)) @ rest)) == pytest.approx(30.0)
+    assert np.degrees(_tilt(rest, rot_z(0.4) @ rot_x(np.radians(-12)) @ rest)) == pytest.approx(12.0)
 
 
 def _shard(out: Path, tilt: np.ndarray) -> Path:
