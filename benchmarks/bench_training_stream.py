@@ -76,6 +76,8 @@ def _write_shard(args: tuple[Path, int, int, int, int]) -> dict:
         "grasp_source": np.ones(count, np.int8),
         "action_source": np.ones(count, np.int8),
         "score": np.full(count, -1.0, np.float32),
+        "progress": np.full(count, -1.0, np.float32),
+        "lift_tilt": np.full(count, -1.0, np.float32),
     }
     assert set(cols) == set(FIELDS)
     return write_shard(folder / f"shard-{index:05d}.npz", cols, {"task": "bench"})

@@ -223,7 +223,8 @@ def test_memory_stays_flat_whatever_the_dataset_size(tmp_path):
     # the first pass (over 12 shards) costs the buffer and a shard or two; a pass over 5x the data
     # raises the high-water mark by next to nothing, and neither comes near the dataset's size
     assert first["growth_mib"] < in_memory_mib / 4, (first, bigger)
-    # (a few MiB of allocator and prefetch-thread slack vary with timing: 0-15 MiB measured, under load)
-    assert bigger["growth_mib"] < in_memory_mib / 8, (first, bigger)
+    # (with glibc's mmap threshold fixed by the stream: 0-0.8 MiB measured; left to glibc's dynamic
+    # threshold the heaps fragmented and the mark crept 17-31 MiB a pass, which this bound catches)
+    assert bigger["growth_mib"] < in_memory_mib / 20, (first, bigger)
     # the measurement can fail: a buffer holding the whole set grows by about the dataset's size
     assert control["growth_mib"] > 0.6 * in_memory_mib, control
