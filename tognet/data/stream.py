@@ -62,7 +62,7 @@ def _fix_mmap_threshold() -> None:
 
     glibc raises the threshold each time a large mapped block is freed, after which shard-sized arrays
     (MiB each, made by the batch thread in its own arena and freed by the consumer) come from the heaps,
-    which fragment: the resident high-water mark then crept by 15-30 MiB per pass over a 60-shard set.
+    which fragment: the resident high-water mark then crept by 17-31 MiB per pass over a 60-shard set.
     With the threshold fixed, every such array is mapped and returned whole (growth under 1 MiB)."""
     if "MALLOC_MMAP_THRESHOLD_" in os.environ or platform.libc_ver()[0] != "glibc":
         return
