@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import ctypes
 import dataclasses
+import functools
 import math
 import os
 import platform
@@ -57,6 +58,7 @@ _MMAP_THRESHOLD = 128 * 1024
 _SAMPLE_STREAM = 0x6E6F726D
 
 
+@functools.cache  # once a process: the setting is the process's
 def _fix_mmap_threshold() -> None:
     """Keep glibc's mmap threshold at its 128 KiB start (unless ``MALLOC_MMAP_THRESHOLD_`` sets it).
 
