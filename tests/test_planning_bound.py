@@ -112,14 +112,45 @@ def test_shares_and_beyond_counts_are_taken_against_the_bound_with_the_oracle_ke
     assert stats["methods"]["Oracle+"]["search_trials"] == 30  # the bound's cost per scene
     rows = {r[0]: r[1] for r in oracle_table({"methods": methods, "tasks": {"hammering": sub}},
                                              "hammering", "all").rows}
-    assert rows == {"TOG-Net": "37 (75); 1 of 10", "Oracle": "50; 0 of 10"}
+    # The scene bound: scenes 0-7 (Oracle+) and 9 (TOG-Net beyond it) of 10; every share is taken of it.
+    scene = stats["scene_bound"]
+    assert (scene["successes"], scene["valid"], scene["added"]) == (9, 10, 1)
+    assert scene["fraction"]["TOG-Net"] == pytest.approx(3 / 9)
+    assert rows == {"TOG-Net": "33 (37 / 75); 1 of 10", "Oracle": "44 (50); 0 of 10",
+                    "Oracle+": "89; the rows add 1"}
     from tognet.evaluate.report import _levels
 
     levels = _levels({"methods": methods, "tasks": {"hammering": sub}})  # for the learning curves
-    assert levels == {"hammering": [("Oracle+, test scenes", 0.8), ("TOG-Net, test scenes", 0.3)]}
+    assert levels == {"hammering": [("Oracle+ or any row, test scenes", 0.9), ("Oracle+, test scenes", 0.8),
+                                    ("TOG-Net, test scenes", 0.3)]}
     without = summarise([r for r in records if r["method"] != "Oracle+"], ["hammering"], methods[:2],
                         ["pg-primitive"])["tasks"]["hammering"]["categories"]["pg-primitive"]["all"]
     assert "beyond_bound" not in without and without["beyond_oracle"]["TOG-Net"]["scenes"] == 1
+    assert (without["scene_bound"]["successes"], without["scene_bound"]["added"]) == (5, 1)  # over the Oracle
+
+
+def test_no_row_solves_a_scene_the_scene_bound_does_not():
+    """Random outcomes over three rows and two categories, invalid trials among them: the scene bound
+    solves every scene any row solves, and each row's paired share of it is at most 1."""
+    rng = np.random.default_rng(4)
+    methods = ["TOG-Net", "TOG-Net+ActionSearch", "Oracle+"]
+    records = []
+    for m in methods:
+        for cat in ("pg-primitive", "realistic"):
+            for s in range(40):
+                r = _record(m, s, bool(rng.random() < 0.4))
+                r.update(category=cat, object_id=f"{cat}-{s % 7}", valid=bool(rng.random() < 0.9))
+                records.append(r)
+    res = summarise(records, ["hammering"], methods, ["pg-primitive", "realistic"])
+    for cat, subs in res["tasks"]["hammering"]["categories"].items():
+        scene = subs["all"]["scene_bound"]
+        mine = [r for r in records if r["valid"] and cat in ("all", r["category"])]
+        solved = {(r["object_id"], r["scene_seed"]) for r in mine if r["task_success"]}
+        assert scene["successes"] == len(solved) > 0
+        for m in methods:
+            own = {(r["object_id"], r["scene_seed"]): r["task_success"] for r in mine if r["method"] == m}
+            share = sum(own.values()) / len(set(own) & solved)
+            assert scene["fraction"][m] == pytest.approx(share) and 0 < share <= 1
 
 
 def test_a_tie_between_sure_pairs_goes_to_the_one_that_wins_more_further_trials(sim, models):

@@ -94,16 +94,30 @@ def results_chart(results: dict[str, Any], path: Path) -> Path:
             return s["rate"], s["ci"], s["valid"]
 
         _bars(ax, cats, methods, cell, headline(task))
+        tres = results["tasks"][task]["categories"]
+        _scene_bound_ticks(ax, [tres[c][sub].get("scene_bound") for c in cats],
+                           f"{BOUND if BOUND in methods else ORACLE} or any row")
     handles, labels = axes[0][0].get_legend_handles_labels()
     # One row of labels when the figure is wide enough for them (about 1.4 in each), else two rows.
-    rows = 1 if per_task * len(tasks) >= 1.4 * len(methods) else 2
-    fig.legend(handles, labels, loc="lower center", ncols=-(-len(methods) // rows), fontsize=8, frameon=False)
+    rows = 1 if per_task * len(tasks) >= 1.4 * len(handles) else 2
+    fig.legend(handles, labels, loc="lower center", ncols=-(-len(handles) // rows), fontsize=8, frameon=False)
     fig.tight_layout(rect=(0, 0.07 * rows, 1, 1))
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=110)
     plt.close(fig)
     return path
+
+
+def _scene_bound_ticks(ax: Any, bounds: Sequence[dict[str, Any] | None], label: str) -> None:
+    """The scene bound of each group (:func:`tognet.evaluate.harness.scene_bound`) as a dashed line across
+    its bars; nothing for results without it."""
+    drawn = False
+    for i, b in enumerate(bounds):
+        if b is not None and b.get("rate") is not None:
+            ax.hlines(100 * b["rate"], i - 0.42, i + 0.42, colors="black", linestyles="--", linewidth=1.2,
+                      label=None if drawn else f"bound: {label}", zorder=5)
+            drawn = True
 
 
 def subsets_chart(results: dict[str, Any], task: str, path: Path) -> Path:
@@ -403,7 +417,7 @@ def learning_curve(run_dir: Path, tasks: Sequence[str], path: Path,
                 label="greedy trials")
         ax.plot(x, [100 * a if a is not None else np.nan for _, _, a in points], "s--", color="#888888",
                 label="all trials of the round")
-        for (label, rate), style in zip((levels or {}).get(task, []), (":", "-."), strict=False):
+        for (label, rate), style in zip((levels or {}).get(task, []), ("-", ":", "-."), strict=False):
             ax.axhline(100 * rate, color="black", linestyle=style, linewidth=1,
                        label=f"{label} {100 * rate:.0f} %")
         ax.set_xlabel("trials collected before the round (thousands)")

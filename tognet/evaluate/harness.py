@@ -451,6 +451,30 @@ def beyond_bound(per_method: dict[str, list[dict[str, Any]]], bound: str) -> dic
     return out
 
 
+def scene_bound(per_method: dict[str, list[dict[str, Any]]], bound: str) -> dict[str, Any]:
+    """The bound no row can beat: a scene counts as solved where any row's trial of it succeeded (the
+    ``bound`` row's, every method's, the diagnostics'), over the scenes where at least one row's trial is
+    valid. A plan that works was tried there in the simulator, so no row solves a scene it does not (issue
+    34); it rises with every row evaluated beside it. ``successes``, ``valid``, ``rate``, ``ci`` (Wilson);
+    ``added``: the scenes it solves that the ``bound`` row alone does not; ``fraction``: each row's share
+    of it, paired: the scenes the row solves over those the bound solves among the row's valid trials
+    (the ratio of the rates when every trial is valid; never above 1)."""
+    outcomes = {m: _outcomes(recs) for m, recs in per_method.items()}
+    solved: dict[tuple[str, int], bool] = {}
+    for rows in outcomes.values():
+        for key, ok in rows.items():
+            solved[key] = solved.get(key, False) or ok
+    alone = outcomes.get(bound, {})
+    n, k = len(solved), sum(solved.values())
+    fraction = {}
+    for m, rows in outcomes.items():
+        top = sum(solved[key] for key in rows)
+        fraction[m] = sum(rows.values()) / top if top else None
+    return {"successes": k, "valid": n, "rate": k / n if n else None, "ci": list(wilson(k, n)) if n else None,
+            "added": sum(ok and not alone.get(key, False) for key, ok in solved.items()),
+            "fraction": fraction}
+
+
 def _q_t(record: dict[str, Any]) -> float | None:
     q = (record.get("scores") or {}).get("q_t")
     return None if q is None else float(q)
@@ -538,7 +562,8 @@ def summarise(records: Sequence[dict[str, Any]], tasks: Sequence[str], methods: 
     ``action_search_minus_method``: the same for the learned action search against every other method that
     is not a diagnostic (empty when it was not evaluated); ``oracle_fraction``: the method's rate over the
     Oracle's; ``beyond_oracle``: :func:`beyond_bound` against the Oracle; with Oracle+ evaluated,
-    ``bound_fraction`` and ``beyond_bound``, the same against it (the stronger bound); ``gap``:
+    ``bound_fraction`` and ``beyond_bound``, the same against it (the stronger bound); with either,
+    ``scene_bound``: :func:`scene_bound` (the bound for every share, over Oracle+'s row); ``gap``:
     :func:`gap_decomposition` (absent without the rows it needs); ``model_rating``: :func:`model_rating`."""
     groups: dict[tuple[str, str, str], list[dict[str, Any]]] = defaultdict(list)
     for r in records:
@@ -569,6 +594,9 @@ def summarise(records: Sequence[dict[str, Any]], tasks: Sequence[str], methods: 
                 if BOUND in methods:
                     subsets[sub].update(bound_fraction=_fractions(stats, BOUND),
                                         beyond_bound=beyond_bound(per_method, BOUND))
+                if {BOUND, ORACLE} & set(methods):
+                    subsets[sub]["scene_bound"] = scene_bound(per_method, BOUND if BOUND in methods
+                                                              else ORACLE)
                 gap = gap_decomposition(per_method, stats)
                 if gap is not None:
                     subsets[sub]["gap"] = gap

@@ -141,7 +141,15 @@ def success_table(results: dict[str, Any], task: str, sub: str, title: str, gras
             top = may_be_best(m, kinds) and s[key] is not None and best[c] and s[key] == best[c]
             row.append((text, "best") if top else text)
         table.rows.append(row)
+    if not grasp and "scene_bound" in tres[cats[0]][sub]:
+        table.rows.append([(scene_bound_name(results), "diag"),
+                           *(_rate_cell(tres[c][sub]["scene_bound"]) for c in cats)])
     return table
+
+
+def scene_bound_name(results: dict[str, Any]) -> str:
+    """The scene bound's row name: the bound row it widens, "or any row"."""
+    return f"{BOUND if BOUND in results['methods'] else ORACLE} or any row"
 
 
 def paired_table(results: dict[str, Any], task: str, sub: str, first: str = REFERENCE,
@@ -176,32 +184,58 @@ def paired_table(results: dict[str, Any], task: str, sub: str, first: str = REFE
 
 
 def oracle_table(results: dict[str, Any], task: str, sub: str) -> Table | None:
-    """Each method's rate as a fraction of the bound's (Oracle+ where it was evaluated, with the Oracle's
-    share beside it for continuity, else the Oracle) and the scenes it solves that the bound does not."""
+    """Each method's rate as a fraction of the bound's and the scenes it solves that the bound row does not.
+    The bound: the scene bound (the bound row or any row solved the scene) where results.json has it, with
+    the bound row's share (Oracle+'s, and the Oracle's, for continuity) in brackets; else the bound row's
+    (Oracle+ where it was evaluated, else the Oracle)."""
     methods = results["methods"]
     bound = BOUND if BOUND in methods else ORACLE if ORACLE in methods else None
     if bound is None:
         return None
     tres = results["tasks"][task]["categories"]
     cats = list(tres)
-    both = bound == BOUND and ORACLE in methods
-    share = f"fraction of {bound}'s success rate (%)" + (" (in brackets, of the Oracle's)" if both else "")
-    table = Table(f"{task}: {share}; scenes the method solves that {bound} does not, of the paired scenes",
-                  ["method", *cats],
-                  note=f"A bound is beaten where the second figure is above 0: a plan that works existed "
-                       f"there and {bound}'s search did not take it.")
-    for m in methods:
-        if m != bound:
-            cells = [_oracle_cell(tres[c][sub], m, bound, both) for c in cats]
-            table.rows.append([_name(results, m), *cells])
+    scene = "scene_bound" in tres[cats[0]][sub]
+    rows = [m for m in methods if m != bound or scene]
+    table = Table(f"{task}: {_share_title(results, bound, scene)}; scenes the method solves that {bound} "
+                  "does not, of the paired scenes", ["method", *cats],
+                  note=_share_note(results, bound, scene))
+    for m in rows:
+        cells = [_oracle_cell(tres[c][sub], m, bound, scene, ORACLE in methods) for c in cats]
+        table.rows.append([_name(results, m), *cells])
     return table
 
 
-def _oracle_cell(stats: dict[str, Any], method: str, bound: str = ORACLE, both: bool = False) -> str:
+def _share_title(results: dict[str, Any], bound: str, scene: bool) -> str:
+    within = [f"{bound}'s"] + (["the Oracle's"] if bound == BOUND and ORACLE in results["methods"] else [])
+    if scene:
+        return f"fraction of the bound's success rate ({scene_bound_name(results)}; in brackets, of " \
+               f"{' / '.join(within)}) (%)"
+    return f"fraction of {bound}'s success rate (%)" + (f" (in brackets, of {within[1]})" if
+                                                        len(within) > 1 else "")
+
+
+def _share_note(results: dict[str, Any], bound: str, scene: bool) -> str:
+    note = f"{bound} is beaten where the second figure is above 0: a plan that works existed there and " \
+           f"{bound}'s search did not take it."
+    if scene:
+        note = f"The bound ({scene_bound_name(results)}): a scene counts as solvable where any row's trial " \
+               f"of it succeeded, so no row solves a scene it does not. " + note
+    return note
+
+
+def _oracle_cell(stats: dict[str, Any], method: str, bound: str = ORACLE, scene: bool = False,
+                 oracle: bool = False) -> str:
     plus = bound == BOUND
-    share = _pct(stats["bound_fraction" if plus else "oracle_fraction"].get(method), 0)
-    if both and method != ORACLE:
-        share += f" ({_pct(stats['oracle_fraction'].get(method), 0)})"
+    own = [_pct(stats["bound_fraction" if plus else "oracle_fraction"].get(method), 0)]
+    if plus and oracle and method != ORACLE:
+        own.append(_pct(stats["oracle_fraction"].get(method), 0))
+    if scene:
+        share = _pct(stats["scene_bound"]["fraction"].get(method), 0)
+        share += "" if method == bound else f" ({' / '.join(own)})"
+    else:
+        share = own[0] + (f" ({own[1]})" if len(own) > 1 else "")
+    if method == bound:
+        return f"{share}; the rows add {stats['scene_bound']['added']}"
     beyond = stats.get("beyond_bound" if plus else "beyond_oracle", {}).get(method)  # older results: none
     return share if beyond is None else f"{share}; {beyond['scenes']} of {beyond['pairs']}"
 
@@ -401,7 +435,8 @@ def _chart_note(results: dict[str, Any]) -> str:
     bounds = [m for m in (ORACLE, BOUND) if m in results.get("methods", ())]
     note = "Bars: task success over valid trials; whiskers: 95 % Wilson intervals."
     if bounds:
-        note += f" Hatched: {' and '.join(bounds)} (upper bounds, simulator ground truth)."
+        note += f" Hatched: {' and '.join(bounds)} (upper bounds, simulator ground truth). Dashed line: " \
+                f"the bound, {scene_bound_name(results)} (the scenes where any row's trial succeeded)."
     if _has_diagnostics(results):
         note += " The diagnostic rows (†) are not drawn here: they use the simulator, see where the gap is."
     return note
@@ -471,9 +506,12 @@ def _levels(results: dict[str, Any]) -> dict[str, list[tuple[str, float]]]:
     for task, tres in results["tasks"].items():
         cats = tres["categories"]
         stats = cats["all" if "all" in cats else next(iter(cats))][main_subset(task)]["methods"]
+        top = cats["all" if "all" in cats else next(iter(cats))][main_subset(task)].get("scene_bound")
         rows = [m for m in (BOUND, ORACLE) if m in stats][:1] + \
             [m for m in (ACTION_SEARCH, REFERENCE) if m in stats][:1]
         out[task] = [(f"{m}, test scenes", stats[m]["rate"]) for m in rows if stats[m]["rate"] is not None]
+        if top is not None and top["rate"] is not None:  # the scene bound, above the bound row
+            out[task].insert(0, (f"{scene_bound_name(results)}, test scenes", top["rate"]))
     return out
 
 
