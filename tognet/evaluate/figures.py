@@ -135,7 +135,8 @@ def subsets_chart(results: dict[str, Any], task: str, path: Path) -> Path:
     fig, ax = plt.subplots(figsize=(8.5, 4.0))
     _bars(ax, subsets, compared(results["methods"], results.get("kinds")), cell,
           f"{breakdown_title(task)} ({cat})")
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    if ax.get_legend_handles_labels()[0]:  # none when only diagnostic rows were evaluated
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=110)
