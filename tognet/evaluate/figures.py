@@ -13,7 +13,16 @@ from typing import Any
 import numpy as np
 
 from tognet.evaluate.config import EvalConfig
-from tognet.evaluate.kinds import BOUND, GAP_ROWS, ORACLE, ORACLE_GRASP, ORACLE_MOTION, compared, kinds_of
+from tognet.evaluate.kinds import (
+    BOUND,
+    GAP_ROWS,
+    ORACLE,
+    ORACLE_GRASP,
+    ORACLE_MOTION,
+    compared,
+    kinds_of,
+    scene_bound_name,
+)
 from tognet.evaluate.subsets import breakdown_title, headline, main_subset
 from tognet.io import atomic_path
 from tognet.jobs.output import JobOutput
@@ -96,7 +105,7 @@ def results_chart(results: dict[str, Any], path: Path) -> Path:
         _bars(ax, cats, methods, cell, headline(task))
         tres = results["tasks"][task]["categories"]
         _scene_bound_ticks(ax, [tres[c][sub].get("scene_bound") for c in cats],
-                           f"{BOUND if BOUND in methods else ORACLE} or any row")
+                           scene_bound_name(results["methods"]))
     handles, labels = axes[0][0].get_legend_handles_labels()
     # One row of labels when the figure is wide enough for them (about 1.4 in each), else two rows.
     rows = 1 if per_task * len(tasks) >= 1.4 * len(handles) else 2

@@ -68,3 +68,9 @@ def may_be_best(name: str, known: Mapping[str, str] | None = None) -> bool:
 def label(name: str, known: Mapping[str, str] | None = None) -> str:
     """The method's name as a table shows it: a diagnostic's with :data:`SIM_MARK`."""
     return name + SIM_MARK if kinds_of([name], known)[name] == "diagnostic" else name
+
+
+def scene_bound_name(methods: Iterable[str]) -> str:
+    """The scene bound's row name (:func:`tognet.evaluate.harness.scene_bound`): the bound row it widens,
+    "or any row"."""
+    return f"{BOUND if BOUND in list(methods) else ORACLE} or any row"

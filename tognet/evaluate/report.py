@@ -25,6 +25,7 @@ from tognet.evaluate.kinds import (
     compared,
     kinds_of,
     may_be_best,
+    scene_bound_name,
 )
 from tognet.evaluate.subsets import breakdown_note, breakdown_title, broken_down, headline, main_subset
 from tognet.io import atomic_write_bytes, atomic_write_text
@@ -142,14 +143,9 @@ def success_table(results: dict[str, Any], task: str, sub: str, title: str, gras
             row.append((text, "best") if top else text)
         table.rows.append(row)
     if not grasp and "scene_bound" in tres[cats[0]][sub]:
-        table.rows.append([(scene_bound_name(results), "diag"),
+        table.rows.append([(scene_bound_name(results['methods']), "diag"),
                            *(_rate_cell(tres[c][sub]["scene_bound"]) for c in cats)])
     return table
-
-
-def scene_bound_name(results: dict[str, Any]) -> str:
-    """The scene bound's row name: the bound row it widens, "or any row"."""
-    return f"{BOUND if BOUND in results['methods'] else ORACLE} or any row"
 
 
 def paired_table(results: dict[str, Any], task: str, sub: str, first: str = REFERENCE,
@@ -208,8 +204,8 @@ def oracle_table(results: dict[str, Any], task: str, sub: str) -> Table | None:
 def _share_title(results: dict[str, Any], bound: str, scene: bool) -> str:
     within = [f"{bound}'s"] + (["the Oracle's"] if bound == BOUND and ORACLE in results["methods"] else [])
     if scene:
-        return f"fraction of the bound's success rate ({scene_bound_name(results)}; in brackets, of " \
-               f"{' / '.join(within)}) (%)"
+        name = scene_bound_name(results["methods"])
+        return f"fraction of the bound's success rate ({name}; in brackets, of {' / '.join(within)}) (%)"
     return f"fraction of {bound}'s success rate (%)" + (f" (in brackets, of {within[1]})" if
                                                         len(within) > 1 else "")
 
@@ -218,8 +214,8 @@ def _share_note(results: dict[str, Any], bound: str, scene: bool) -> str:
     note = f"{bound} is beaten where the second figure is above 0: a plan that works existed there and " \
            f"{bound}'s search did not take it."
     if scene:
-        note = f"The bound ({scene_bound_name(results)}): a scene counts as solvable where any row's trial " \
-               f"of it succeeded, so no row solves a scene it does not. " + note
+        note = f"The bound ({scene_bound_name(results['methods'])}): a scene counts as solvable where any " \
+               f"row's trial of it succeeded, so no row solves a scene it does not. " + note
     return note
 
 
@@ -436,7 +432,7 @@ def _chart_note(results: dict[str, Any]) -> str:
     note = "Bars: task success over valid trials; whiskers: 95 % Wilson intervals."
     if bounds:
         note += f" Hatched: {' and '.join(bounds)} (upper bounds, simulator ground truth). Dashed line: " \
-                f"the bound, {scene_bound_name(results)} (the scenes where any row's trial succeeded)."
+                f"the bound, {scene_bound_name(bounds)} (the scenes where any row's trial succeeded)."
     if _has_diagnostics(results):
         note += " The diagnostic rows (†) are not drawn here: they use the simulator, see where the gap is."
     return note
@@ -505,13 +501,13 @@ def _levels(results: dict[str, Any]) -> dict[str, list[tuple[str, float]]]:
     out: dict[str, list[tuple[str, float]]] = {}
     for task, tres in results["tasks"].items():
         cats = tres["categories"]
-        stats = cats["all" if "all" in cats else next(iter(cats))][main_subset(task)]["methods"]
-        top = cats["all" if "all" in cats else next(iter(cats))][main_subset(task)].get("scene_bound")
+        main = cats["all" if "all" in cats else next(iter(cats))][main_subset(task)]
+        stats, top = main["methods"], main.get("scene_bound")
         rows = [m for m in (BOUND, ORACLE) if m in stats][:1] + \
             [m for m in (ACTION_SEARCH, REFERENCE) if m in stats][:1]
         out[task] = [(f"{m}, test scenes", stats[m]["rate"]) for m in rows if stats[m]["rate"] is not None]
         if top is not None and top["rate"] is not None:  # the scene bound, above the bound row
-            out[task].insert(0, (f"{scene_bound_name(results)}, test scenes", top["rate"]))
+            out[task].insert(0, (f"{scene_bound_name(results['methods'])}, test scenes", top["rate"]))
     return out
 
 
