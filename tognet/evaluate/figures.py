@@ -37,6 +37,7 @@ COLOURS = {
     "Task_Ori+Random": "#fdae6b",
     "TOG-Net": "#d94801",
     "TOG-Net+ActionSearch": "#6a3d9a",
+    "TOG-Net+Twin": "#1b9e77",
     ORACLE: "#404040",
     BOUND: "#000000",
     ORACLE_MOTION: "#fdd0a2",

@@ -1,8 +1,8 @@
 """What kind of row each method is in the evaluation's results and report, from the light-weight names of
 :mod:`tognet.planning.method_names` (no model or simulator imports): ``baseline`` (the paper's),
-``ours`` (TOG-Net and the learned action search), ``oracle`` (the simulator's search, an upper bound) and
-``diagnostic`` (reads the simulator's ground truth for one half of the plan; never a baseline, never
-"best").
+``ours`` (TOG-Net, the learned action search and its twin check), ``oracle`` (the simulator's search, an
+upper bound) and ``diagnostic`` (reads the simulator's ground truth for one half of the plan; never a
+baseline, never "best").
 
 The main comparison (the bar chart, the best method, the paired tables) covers the methods that are not
 diagnostics (:func:`compared`); the diagnostics have a section of their own (where the gap to the Oracle
@@ -20,6 +20,8 @@ Kind = Literal["baseline", "ours", "oracle", "diagnostic"]
 
 REFERENCE = "TOG-Net"
 ACTION_SEARCH = "TOG-Net+ActionSearch"
+#: The action search's best plans tried in a world built from the depth image (tognet.planning.twin).
+TWIN = "TOG-Net+Twin"
 ORACLE = "Oracle"
 #: The stronger bound (every method's plan tried, a wider search): what "share of the bound" is over.
 BOUND = "Oracle+"
@@ -39,7 +41,7 @@ def method_kind(name: str) -> Kind:
     """The kind of the method called ``name`` (an unknown name is a baseline)."""
     if name in (ORACLE, BOUND):
         return "oracle"
-    if name in (REFERENCE, ACTION_SEARCH):
+    if name in (REFERENCE, ACTION_SEARCH, TWIN):
         return "ours"
     if name in DIAGNOSTIC_NAMES:
         return "diagnostic"

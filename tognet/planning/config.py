@@ -66,6 +66,25 @@ class BoundConfig(Config):
 
 
 @dataclass(frozen=True)
+class TwinConfig(Config):
+    """The image's twin (:mod:`tognet.planning.twin`): a solid built from the depth image alone, set in a
+    simulated world with the props where the robot is told they are, in which the action search's best
+    (grasp, action) pairs are tried before one is chosen. It reads no ground truth: only the image, its
+    camera, the reference point and nominal values for what the image cannot show."""
+
+    pairs: int = doc(8, "The action search's best (grasp, action) pairs tried in the twin.", ge=1)
+    seeds: int = doc(3, "Trials per pair in the twin, on execution-noise seeds of their own.", ge=1)
+    cell: float = doc(0.02, "Width (m) of the grid cells the image's object is cut into (one convex "
+                      "piece each).", gt=0)
+    min_height: float = doc(0.004, "Pixels this high (m) above the table or more are the object's.", gt=0)
+    max_x: float = doc(0.12, "Pixels with a world x up to this (m) are the object's (the props lie beyond; "
+                       "the grasping half is x < 0).")
+    density: float = doc(1000.0, "The twin's density (kg/m^3): not in the image, a nominal one.", gt=0)
+    friction: float = doc(0.85, "The twin's sliding friction: not in the image, the middle of the "
+                          "generators' range.", gt=0)
+
+
+@dataclass(frozen=True)
 class ReachConfig(Config):
     """Planning for an arm (:mod:`tognet.planning.reach`): which of a planner's grasps an arm beside the
     table can carry out. Used only when an arm carries the hand (``SimConfig.robot`` not floating, or
@@ -112,6 +131,7 @@ class PlanConfig(Config):
     )
     oracle: OracleConfig = doc(factory=OracleConfig, text="The Oracle's simulator search.")
     bound: BoundConfig = doc(factory=BoundConfig, text="Oracle+'s search (the stronger bound).")
+    twin: TwinConfig = doc(factory=TwinConfig, text="TOG-Net+Twin's trials in the image's twin.")
     reach: ReachConfig = doc(
         factory=ReachConfig, text="With an arm carrying the hand: what every planner checks it reaches."
     )

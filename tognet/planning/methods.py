@@ -14,6 +14,10 @@ TOG-Net              CEM on the task model's Q_T                  the task model
 TOG-Net+ActionSearch the best candidate by Q_G * max_a Q_T|G,a    CEM on Q_T|G,a at that grasp (the action-
                      (the action-conditioned model, beyond the    conditioned model; tognet.policies.
                      paper)                                       action_search)
+TOG-Net+Twin         of the action search's 8 best (grasp,        the action search's for that grasp
+                     action) pairs, the one that succeeds most
+                     in a world built from the depth image alone
+                     (tognet.planning.twin; beyond the paper)
 Oracle               simulator search: NMS modes both ways        hand-computed from the tool's pose in the
                      round, each tried in the simulator           hand (tognet.sim.oracle), best found
 Oracle+              every method's plan (and the learned ones'   theirs, then the Oracle's from their
@@ -52,6 +56,7 @@ from tognet.planning.method_names import DIAGNOSTIC_NAMES, METHOD_NAMES
 from tognet.planning.plan import Planner
 from tognet.planning.planners import OracleActions, OracleGrasp, OraclePlanner, PolicyPlanner
 from tognet.planning.reach import ArmReach, reach_of
+from tognet.planning.twin import TwinGrasps
 from tognet.policies.action import BaselineRandomActions, PolicyActions
 from tognet.policies.action_search import ActionSearchActions, ActionSearchGrasps
 from tognet.policies.grasp import CEMGrasp, NMSGrasps
@@ -76,6 +81,7 @@ class MethodInputs:
     sim: Any = None
     search_model: Any = None
     reach: ArmReach | None = None
+    sim_config: Any = None
 
 
 @dataclass(frozen=True)
@@ -129,6 +135,10 @@ def _policy_mean(i: MethodInputs) -> ActionPolicy:
 
 def _search_grasp(i: MethodInputs) -> GraspPolicy:
     return ActionSearchGrasps(i.search_model, i.config.policy.action_search)
+
+
+def _twin_grasp(i: MethodInputs) -> GraspPolicy:
+    return TwinGrasps(i.search_model, i.config.policy.action_search, i.config.twin, i.sim_config)
 
 
 def _search_action(i: MethodInputs) -> ActionPolicy:
@@ -190,6 +200,7 @@ def _oracle_motion(i: MethodInputs) -> ActionPolicy:
 _Q_G = "Q_G (the grasp-only model)"
 _Q_T = "Q_T = Q_T|G x Q_G (the task model)"
 _SEARCH = "Q_G x Q_T|G,a of the searched action (the action-search model)"
+_TWIN = "Q_G x Q_T|G,a of the searched action (the action-search model) of the pair chosen in the twin"
 _SEEDS = "the share of the search's seeds it won (simulator)"
 METHOD_TABLE: tuple[Method, ...] = (
     Method("Antipodal+Random", "baseline", (), "the antipodal quality of its NMS mode", grasp=_nms_antipodal,
@@ -199,6 +210,7 @@ METHOD_TABLE: tuple[Method, ...] = (
     Method("Task_Ori+Random", "baseline", ("task",), _Q_T, grasp=_cem_q_t, action=_random_actions),
     Method("TOG-Net", "ours", ("task",), _Q_T, grasp=_cem_q_t, action=_policy_mean),
     Method("TOG-Net+ActionSearch", "ours", ("search",), _SEARCH, grasp=_search_grasp, action=_search_action),
+    Method("TOG-Net+Twin", "ours", ("search",), _TWIN, grasp=_twin_grasp, action=_search_action),
     Method("Oracle", "oracle", (), _SEEDS, planner=_oracle),
     Method("Oracle+", "oracle", ("grasp", "task", "search"), _SEEDS, planner=_bound),
     Method("TOG-Net grasp + Oracle motion", "diagnostic", ("task",), _Q_T, grasp=_cem_q_t,
@@ -217,8 +229,8 @@ if METHODS != METHOD_NAMES or DIAGNOSTIC_NAMES != tuple(m.name for m in METHOD_T
 NEEDS: dict[str, tuple[ModelName, ...]] = {m.name: m.needs for m in METHOD_TABLE}
 #: The methods a robot can run (no simulator), best first: by the README evaluation's success on unseen
 #: objects (every task); :func:`default_method` takes the first whose models are there.
-BEST_FIRST: tuple[str, ...] = ("TOG-Net+ActionSearch", "TOG-Net", "Task_Agn+Trained", "Task_Ori+Random",
-                               "Task_Agn+Random", "Antipodal+Random")
+BEST_FIRST: tuple[str, ...] = ("TOG-Net+ActionSearch", "TOG-Net+Twin", "TOG-Net", "Task_Agn+Trained",
+                               "Task_Ori+Random", "Task_Agn+Random", "Antipodal+Random")
 if sorted(BEST_FIRST) != sorted(m.name for m in METHOD_TABLE if not m.uses_sim):
     raise ImportError("BEST_FIRST must rank every method a robot can run")
 #: What each model a method needs is, in words.
@@ -266,7 +278,7 @@ def check_methods(methods: list[str] | tuple[str, ...] | str) -> tuple[str, ...]
 
 def make_planner(method: str | Method, task: Task, *, grasp_model: Any = None, task_model: Any = None,
                  config: PlanConfig | None = None, sim: Any = None, search_model: Any = None,
-                 reach: ArmReach | None = None) -> Planner:
+                 reach: ArmReach | None = None, sim_config: Any = None) -> Planner:
     """The planner of ``method`` (a name of :data:`METHODS`, or a :class:`Method`) for ``task``.
 
     ``grasp_model`` / ``task_model`` / ``search_model``: predictors
@@ -278,7 +290,9 @@ def make_planner(method: str | Method, task: Task, *, grasp_model: Any = None, t
 
     ``reach``: plan only what this arm reaches (:class:`tognet.planning.reach.ArmReach`, the same filter
     for every method); by default the simulator's arm when ``sim`` has one (``SimConfig.robot`` not
-    floating) and ``config.reach.enabled`` is on. The floating gripper's plans never pass through it."""
+    floating) and ``config.reach.enabled`` is on. The floating gripper's plans never pass through it.
+    ``sim_config``: the settings of the twin's world (TOG-Net+Twin: the robot's own hand, physics and
+    task settings, never a scene); by default the simulator's, else the defaults."""
     row = method if isinstance(method, Method) else get_method(method)
     config = config or PlanConfig()
     if row.uses_sim and sim is None:
@@ -297,7 +311,11 @@ def make_planner(method: str | Method, task: Task, *, grasp_model: Any = None, t
                              "the action")
         if getattr(search_model, "task", task.name) not in (None, task.name):
             raise ValueError(f"the action-search model was trained for {search_model.task}, not {task.name}")
-    inputs = MethodInputs(task, config, grasp_model, task_model, sim, search_model, reach)
+    if sim_config is None and "TOG-Net+Twin" == row.name:  # the twin's world: the simulator's settings
+        from tognet.sim.config import SimConfig
+
+        sim_config = sim.config if sim is not None else SimConfig()
+    inputs = MethodInputs(task, config, grasp_model, task_model, sim, search_model, reach, sim_config)
     if row.planner is not None:  # a planner of its own (the Oracle's search: no model, no crops)
         return row.planner(inputs)
     assert row.grasp is not None and row.action is not None

@@ -109,6 +109,8 @@ class PolicyPlanner:
         timing = {} if timing is None else timing
         t0 = time.perf_counter() if t0 is None else t0
         reach = self.reach if reach is None else reach
+        if reference is not None:  # for a grasp policy that tries its plans in the image's twin
+            view.cache.setdefault("reference", np.asarray(reference, dtype=np.float64))
         t1 = time.perf_counter()
         pick = self.grasp_policy(view, 1, rng)
         t2 = time.perf_counter()
@@ -137,6 +139,8 @@ class PolicyPlanner:
         t5 = time.perf_counter()
         timing.update(rate=t5 - t4, total=t5 - t0)
         (choice, sources) = chosen[0][2]
+        if "twin" in view.cache:  # what the image's twin found (tognet.planning.twin)
+            info["twin"] = view.cache["twin"]
         if alternatives and "ranked" in view.cache:
             info["ranked"] = view.cache["ranked"]
         return Plan(self.name, grasps[0], actions[0], self._scores(view, grasps[0], choice), timing,

@@ -272,6 +272,29 @@ class Simulator(Trial):
             info={"layout": layout},
         )
 
+    def place_scene(self, layout: dict[str, Any], seed: int) -> None:
+        """A scene set rather than drawn: the object's own frame at the world's (its meshes where they
+        are, e.g. built from an image in the world frame), the props where ``layout`` says; settled and
+        saved, as :meth:`reset` leaves a scene (no depth image is taken). ``seed`` names the scene: the
+        trials' execution noise is drawn from it and their own seeds."""
+        m, d = self.model, self.data
+        mujoco.mj_resetData(m, d)
+        self._park()
+        qa = self._obj_qadr
+        d.qpos[qa : qa + 3] = self._com
+        d.qpos[qa + 3 : qa + 7] = (1.0, 0.0, 0.0, 0.0)
+        self._props.place(layout)
+        mujoco.mj_forward(m, d)
+        try:
+            self._settle()
+        except Unstable as exc:
+            raise SimulationError(f"object {self.obj.object_id}: unstable while settling ({exc})") from exc
+        d.time = 0.0
+        self._saved = np.empty(mujoco.mj_stateSize(m, self._state_spec))
+        mujoco.mj_getState(m, d, self._saved, self._state_spec)
+        self._scene = {"seed": int(seed), "layout": layout, "reference": self._props.reference(layout),
+                       "object_com": d.xipos[self._obj_body].copy()}
+
     def _park(self) -> None:
         """The hand out of the way while a scene settles: the floating base above the table, an arm at its
         park pose (``robot.park``)."""

@@ -141,6 +141,12 @@ class Task:
         :attr:`subsets` by (none here)."""
         return {}
 
+    def told_layout(self, reference: NDArray[np.float64]) -> dict[str, Any] | None:
+        """The props' layout as a robot is told it: from the task's reference point alone, each prop's
+        hidden properties (a can's mass) at the middle of their range; None where the reference point does
+        not fix the layout (this base class)."""
+        return None
+
     # --- to implement -------------------------------------------------------------------------------
     def sample_layout(self, rng: np.random.Generator) -> dict[str, Any]:
         """Random prop layout for one episode (plain numbers)."""

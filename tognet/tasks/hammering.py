@@ -111,6 +111,10 @@ class Hammering(Task):
         x, y = layout["slot"]
         return np.array([x, y, self.config.peg_height])
 
+    def told_layout(self, reference: NDArray[np.float64]) -> dict[str, Any] | None:
+        """The slot face under the reference point (the peg's centre): the whole layout."""
+        return {"slot": (float(reference[0]), float(reference[1]))}
+
     def primitive(self) -> list[Motion]:
         """The wrist turns ``swing`` counter-clockwise at full speed; the gripper stays put."""
         return [Motion(dyaw=self.config.swing)]

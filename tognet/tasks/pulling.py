@@ -110,6 +110,10 @@ class Pulling(Task):
         x, y, _ = layout["can"]
         return np.array([x, y, 0.5 * self.config.can_height])
 
+    def told_layout(self, reference: NDArray[np.float64]) -> dict[str, Any] | None:
+        """The can under the reference point, its mass (not seen) the middle of ``can_mass``."""
+        return {"can": (float(reference[0]), float(reference[1]), float(np.mean(self.config.can_mass)))}
+
     def primitive(self) -> list[Motion]:
         """A straight pull along world -x."""
         return [Motion(delta=(-self.config.pull, 0.0, 0.0), speed=self.config.pull_speed)]
