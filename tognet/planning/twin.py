@@ -117,6 +117,18 @@ class TwinGrasps(ActionSearchGrasps):
         info.update(wins=wins.tolist(), seconds=time.perf_counter() - t0)
         return int(np.argmax(wins))  # first of the most wins: the search's order breaks ties
 
+    def ranked(self, view: SceneView, rng: np.random.Generator) -> GraspPick:
+        """The pairs tried in the twin by their wins there (most first, the search's order breaking ties),
+        then the search's other refined grasps and every other candidate by its rating."""
+        self.checked(view, rng)
+        pick = super().ranked(view, rng)
+        wins = view.cache["twin"].get("wins")
+        if wins is None:
+            return pick
+        head = np.argsort(-np.asarray(wins), kind="stable")
+        order = np.concatenate([head, np.arange(len(wins), len(pick.grasps))])
+        return GraspPick(pick.grasps[order], pick.source[order], pick.score[order])
+
     def __call__(self, view: SceneView, n: int, rng: np.random.Generator) -> GraspPick:
         grasps, res, row = self.checked(view, rng)
         best = grasps[res.index[row]]
